@@ -1,0 +1,1 @@
+"""Physics-based and data-driven RUL baselines (issue 4)."""

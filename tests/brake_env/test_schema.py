@@ -1,0 +1,113 @@
+import numpy as np
+import pandas as pd
+import pytest
+
+from brake_env.schema import EventLogError, read_event_log, validate_event_log, write_event_log
+
+
+def good_log(n: int = 6) -> pd.DataFrame:
+    return pd.DataFrame(
+        {
+            "run_id": ["a"] * (n // 2) + ["b"] * (n - n // 2),
+            "event": list(range(n // 2)) + list(range(n - n // 2)),
+            "speed_kmh": np.linspace(5, 14, n),
+            "mass_kg": np.full(n, 48e3),
+            "slope_rad": np.full(n, 0.1),
+            "energy_j": np.full(n, 1.5e5),
+            "temp_c": np.linspace(450, 520, n),
+            "stop_dist_m": np.full(n, 2.0),
+            "volume_frac": np.linspace(1.0, 0.9, n),
+            "failed": [False] * n,
+        }
+    )
+
+
+def test_good_log_passes_and_keeps_unknown_columns() -> None:
+    df = good_log()
+    df["driver"] = "x"
+    out = validate_event_log(df)
+    assert list(out.columns) == list(df.columns)
+    assert out["event"].dtype == np.int64
+
+
+def test_nan_in_a_sensor_channel_is_a_dropout_not_an_error() -> None:
+    df = good_log()
+    df.loc[2, "temp_c"] = np.nan
+    assert np.isnan(validate_event_log(df)["temp_c"].iloc[2])
+
+
+def test_interleaved_runs_are_fine() -> None:
+    df = good_log().iloc[[0, 3, 1, 4, 2, 5]].reset_index(drop=True)
+    validate_event_log(df)
+
+
+@pytest.mark.parametrize(
+    ("mutate", "expected"),
+    [
+        (lambda d: d.drop(columns=["temp_c"]), r"missing required column\(s\) \['temp_c'\]"),
+        (
+            lambda d: d.assign(temp_c=d["temp_c"].astype(object).where(d.index != 4, "hot")),
+            r"column 'temp_c', row 4.*expected a number, got 'hot'",
+        ),
+        (
+            lambda d: d.assign(event=d["event"].astype(float).where(d.index != 1, np.nan)),
+            r"column 'event', row 1.*missing value",
+        ),
+        (
+            lambda d: d.assign(event=d["event"].astype(float).where(d.index != 1, 0.5)),
+            r"column 'event', row 1.*expected an integer",
+        ),
+        (
+            lambda d: d.assign(event=[0, 2, 2, 0, 1, 2]),
+            r"column 'event', row 2, run 'a': event 2 does not increase",
+        ),
+        (
+            lambda d: d.assign(mass_kg=d["mass_kg"].where(d.index != 3, -5.0)),
+            r"column 'mass_kg', row 3.*outside the physically possible range",
+        ),
+        (
+            lambda d: d.assign(temp_c=d["temp_c"].where(d.index != 5, -300.0)),
+            r"column 'temp_c', row 5.*-300",
+        ),
+        (
+            lambda d: d.assign(volume_frac=d["volume_frac"].where(d.index != 0, 1.5)),
+            r"column 'volume_frac', row 0",
+        ),
+        (lambda d: d.assign(failed=["no", *[False] * 5]), r"column 'failed', row 0.*boolean"),
+        (lambda d: d.assign(run_id=[None, *["a"] * 2, *["b"] * 3]), r"column 'run_id', row 0"),
+    ],
+    ids=[
+        "missing",
+        "wrong-type",
+        "nan",
+        "fraction",
+        "order",
+        "neg-mass",
+        "cold",
+        "volume",
+        "bool",
+        "no-run",
+    ],
+)
+def test_bad_input_gets_one_clear_error(mutate, expected) -> None:
+    with pytest.raises(EventLogError, match=expected):
+        validate_event_log(mutate(good_log()))
+
+
+def test_csv_errors_give_the_file_line(tmp_path) -> None:
+    df = good_log()
+    path = tmp_path / "log.csv"
+    write_event_log(df, path)
+    text = path.read_text().splitlines()
+    text[3] = text[3].replace('"a",2,', '"a",zwei,')  # row 2 of the data is line 4 of the file
+    path.write_text("\n".join(text) + "\n")
+    with pytest.raises(EventLogError, match=r"log.csv: column 'event', row 2 \(CSV line 4\)"):
+        read_event_log(path)
+
+
+def test_unsupported_or_missing_file(tmp_path) -> None:
+    (tmp_path / "log.xlsx").write_text("x")
+    with pytest.raises(EventLogError, match="unsupported file type"):
+        read_event_log(tmp_path / "log.xlsx")
+    with pytest.raises(FileNotFoundError):
+        read_event_log(tmp_path / "none.parquet")

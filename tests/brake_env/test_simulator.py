@@ -1,0 +1,83 @@
+import numpy as np
+import pytest
+
+from brake_env.simulator import expected_life, simulate_run_reference, simulate_runs
+
+K_FAST = 4e-5  # 20x the nominal coefficient: short lives for quick tests
+
+
+def seeds(n: int, seed: int = 0) -> list[np.random.SeedSequence]:
+    return np.random.SeedSequence(seed).spawn(n)
+
+
+def test_vectorised_equals_per_event_reference(small_atlas) -> None:
+    ss = seeds(3)
+    fast = simulate_runs(small_atlas, [K_FAST, 1.3 * K_FAST, 0.8 * K_FAST], ss)
+    for k, s, traj in zip([K_FAST, 1.3 * K_FAST, 0.8 * K_FAST], ss, fast, strict=True):
+        ref = simulate_run_reference(small_atlas, k, s)
+        assert ref.n_events == traj.n_events
+        for f in (
+            "speed_mps",
+            "mass_kg",
+            "slope_rad",
+            "temp_mean_c",
+            "stop_dist_m",
+            "wear_frac",
+            "volume_frac",
+            "layer",
+        ):
+            np.testing.assert_array_equal(getattr(traj, f), getattr(ref, f), err_msg=f)
+        assert traj.final_volume_frac == ref.final_volume_frac
+
+
+def test_a_run_does_not_depend_on_its_neighbours(small_atlas) -> None:
+    ss = seeds(4)
+    together = simulate_runs(small_atlas, [K_FAST, 2e-6 * 5, K_FAST * 2, K_FAST], ss)
+    alone = simulate_runs(small_atlas, [K_FAST * 2], [ss[2]])[0]
+    np.testing.assert_array_equal(together[2].volume_frac, alone.volume_frac)
+
+
+def test_volume_layers_and_failure_are_consistent(small_atlas) -> None:
+    a = small_atlas
+    (t,) = simulate_runs(a, [K_FAST], seeds(1))
+    v = t.volume_frac
+    assert v[0] == 1.0
+    assert np.all(np.diff(v) < 0) and np.all(t.wear_frac > 0)
+    np.testing.assert_allclose(v[1:], v[:-1] - t.wear_frac[:-1], rtol=0, atol=1e-12)
+    # Every event ran on the layer whose 1% band holds the volume at its start.
+    lower = np.append(a.volumes[1:], a.critical_volume)[t.layer]
+    assert np.all(v <= a.volumes[t.layer] + 1e-12) and np.all(v >= lower)
+    # The run ends with the event that takes the pad below the critical volume.
+    assert t.final_volume_frac < a.critical_volume <= v[-1]
+    np.testing.assert_array_equal(t.rul_events, t.n_events - 1 - np.arange(t.n_events))
+
+
+def test_lifetime_scales_as_one_over_k(small_atlas) -> None:
+    ks = np.array([1.0, 2.0, 4.0]) * K_FAST
+    trajs = simulate_runs(small_atlas, ks, seeds(3, seed=11))
+    k_life = ks * np.array([t.n_events for t in trajs])
+    # Exact in expectation; the simulated lives scatter by the operating-condition noise.
+    np.testing.assert_allclose(k_life, k_life.mean(), rtol=0.02)
+    np.testing.assert_allclose(ks * expected_life(small_atlas, ks), k_life.mean(), rtol=0.02)
+
+
+def test_same_seed_same_trajectory_other_seed_differs(small_atlas) -> None:
+    a1 = simulate_runs(small_atlas, [K_FAST], seeds(1, 5))[0]
+    a2 = simulate_runs(small_atlas, [K_FAST], seeds(1, 5))[0]
+    b = simulate_runs(small_atlas, [K_FAST], seeds(1, 6))[0]
+    np.testing.assert_array_equal(a1.temp_mean_c, a2.temp_mean_c)
+    assert a1.n_events != b.n_events or not np.array_equal(a1.speed_mps, b.speed_mps)
+
+
+def test_operating_conditions_are_uniform_over_the_envelope(small_atlas) -> None:
+    (t,) = simulate_runs(small_atlas, [K_FAST / 4], seeds(1))
+    kmh = t.speed_mps * 3.6
+    assert kmh.min() >= 4.0 and kmh.max() <= 15.0
+    assert abs(kmh.mean() - 9.5) < 0.1 and abs(t.mass_kg.mean() - 48e3) < 150
+
+
+def test_bad_wear_coefficients_are_rejected(small_atlas) -> None:
+    with pytest.raises(ValueError, match="wear coefficients"):
+        simulate_runs(small_atlas, [-1e-6], seeds(1))
+    with pytest.raises(ValueError, match="one seed per"):
+        simulate_runs(small_atlas, [1e-6, 2e-6], seeds(1))

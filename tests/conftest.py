@@ -1,0 +1,28 @@
+"""Shared fixtures: atlases are built once per session and cached in a temporary folder."""
+
+from __future__ import annotations
+
+import pytest
+
+from brake_env.atlas import Atlas, AtlasSpec
+
+
+@pytest.fixture(autouse=True, scope="session")
+def _isolated_cache(tmp_path_factory: pytest.TempPathFactory) -> None:
+    # Never touch the user's ~/.cache from the tests.
+    mp = pytest.MonkeyPatch()
+    mp.setenv("BRAKEWEAR_CACHE_DIR", str(tmp_path_factory.mktemp("atlas-cache")))
+    yield
+    mp.undo()
+
+
+@pytest.fixture(scope="session")
+def atlas() -> Atlas:
+    """The default atlas (the documented calibration), ~1 s to build."""
+    return Atlas.build()
+
+
+@pytest.fixture(scope="session")
+def small_atlas() -> Atlas:
+    """A coarse atlas of the default physics for fast simulator and dataset tests."""
+    return Atlas.build(AtlasSpec(n_speed=6, n_mass=3, n_slope=5))

@@ -1,0 +1,68 @@
+import json
+
+import pytest
+
+from brake_env.cli import main
+
+SMALL = [
+    "--n-train",
+    "1",
+    "--n-id",
+    "1",
+    "--n-ood-slow",
+    "1",
+    "--n-ood-fast",
+    "1",
+    "--k-mean",
+    "4e-5",
+    "--k-std",
+    "4e-6",
+    "--quiet",
+]
+
+
+def test_simulate_writes_logs_summary_and_figures(tmp_path) -> None:
+    out = tmp_path / "data"
+    assert main(["simulate", "--out", str(out), "--seed", "1", *SMALL]) == 0
+    for split in ("train", "id", "ood"):
+        assert (out / f"{split}.parquet").stat().st_size > 0
+        assert (out / f"{split}.csv").stat().st_size > 0
+    s = json.loads((out / "summary.json").read_text())
+    assert {"seed", "atlas", "life_events", "runs", "timing_s", "failure_volume_frac"} <= set(s)
+    assert len(s["runs"]) == 4
+    assert {"atlas_build", "simulate", "write"} <= set(s["timing_s"])
+    assert 0.15 <= s["atlas"]["critical_volume_frac"] <= 0.25
+    assert (out / "figures" / "volume_trajectories.png").stat().st_size > 0
+    assert list((out / "figures").glob("trace_*.png"))
+
+
+def test_simulate_same_seed_same_output(tmp_path) -> None:
+    for d in ("a", "b"):
+        main(["simulate", "--out", str(tmp_path / d), "--seed", "7", "--format", "csv", *SMALL])
+    for split in ("train", "id", "ood"):
+        assert (tmp_path / f"a/{split}.csv").read_bytes() == (
+            tmp_path / f"b/{split}.csv"
+        ).read_bytes()
+    sa, sb = (json.loads((tmp_path / d / "summary.json").read_text()) for d in ("a", "b"))
+    sa.pop("timing_s"), sb.pop("timing_s")  # wall times are the only difference
+    assert sa == sb
+
+
+def test_atlas_command_and_demo(tmp_path) -> None:
+    assert main(["atlas", "--out", str(tmp_path / "atlas"), "--quiet"]) == 0
+    info = json.loads((tmp_path / "atlas" / "atlas.json").read_text())
+    assert info["wear_per_event_ratio_end_fresh"] >= 1.2
+    assert info["mean_temp_strictly_rising_everywhere"] is True
+    assert (tmp_path / "atlas" / "calibration.png").stat().st_size > 0
+    assert main(["demo", "--out", str(tmp_path / "demo"), *SMALL]) == 0
+    assert "failure (most severe event cannot stop)" in (tmp_path / "demo/report.md").read_text()
+
+
+def test_bad_arguments_are_named(tmp_path, capsys) -> None:
+    with pytest.raises(SystemExit):
+        main(["simulate", "--out", str(tmp_path), "--format", "xlsx"])
+    assert "--format" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        main(["simulate", "--out", str(tmp_path), "--n-train", "-2"])
+    assert main(["simulate", "--out", str(tmp_path), "--k-std", "-1", "--quiet"]) == 2
+    assert "k_std" in capsys.readouterr().err

@@ -1,0 +1,1 @@
+"""The digital twin: state estimation, wear-coefficient identification, prognosis (issue 4)."""
