@@ -89,7 +89,7 @@ class Atlas:
         speed_mps, mass_kg, slope_rad: Grid axes.
         fields: Name -> array of shape (layers, n_speed, n_mass, n_slope); see ``FIELDS``.
         critical_volume: Volume fraction below which the severe event cannot stop [-].
-        build_seconds: Wall time of the build (0 when loaded from disk).
+        build_seconds: Wall time of the build (kept in the file, so also after loading).
     """
 
     spec: AtlasSpec
@@ -104,7 +104,7 @@ class Atlas:
     # ---------------------------------------------------------------- construction
     @classmethod
     def build(
-        cls, spec: AtlasSpec | None = None, progress: Callable[[int], None] | None = None
+        cls, spec: AtlasSpec | None = None, progress: Callable[[int], object] | None = None
     ) -> Atlas:
         """Evaluate the physics on every grid node of every layer, vectorised.
 
@@ -119,7 +119,7 @@ class Atlas:
         slope = np.radians(np.linspace(*env.slope_deg, spec.n_slope))
         v_crit = critical_volume(spec.model)
         n_layers = int(np.floor((1.0 - v_crit) / spec.layer_step + 1e-9)) + 1
-        volumes = 1.0 - spec.layer_step * np.arange(n_layers)
+        volumes = (1.0 - spec.layer_step * np.arange(n_layers)).astype(np.float64)
         volumes = volumes[volumes > v_crit]
         fields = {
             name: np.empty((volumes.size, speed.size, mass.size, slope.size)) for name in FIELDS
@@ -163,17 +163,18 @@ class Atlas:
             "hash": self.content_hash,
             "spec": self.spec.to_dict(),
             "critical_volume": self.critical_volume,
+            "build_seconds": self.build_seconds,
         }
         tmp = path.with_name(path.name + ".tmp.npz")
-        np.savez_compressed(
-            tmp,
-            meta=np.array(json.dumps(meta, sort_keys=True)),
-            volumes=self.volumes,
-            speed_mps=self.speed_mps,
-            mass_kg=self.mass_kg,
-            slope_rad=self.slope_rad,
+        arrays: dict[str, Any] = {
+            "meta": np.array(json.dumps(meta, sort_keys=True)),
+            "volumes": self.volumes,
+            "speed_mps": self.speed_mps,
+            "mass_kg": self.mass_kg,
+            "slope_rad": self.slope_rad,
             **{f"field_{k}": v for k, v in self.fields.items()},
-        )
+        }
+        np.savez_compressed(tmp, **arrays)
         tmp.replace(path)  # atomic: a concurrent reader never sees half a file
         return path
 
@@ -198,6 +199,7 @@ class Atlas:
                 z["slope_rad"],
                 fields,
                 float(meta["critical_volume"]),
+                float(meta.get("build_seconds", 0.0)),
             )
 
     # ---------------------------------------------------------------- queries
@@ -349,7 +351,7 @@ def cached_atlas(
     spec: AtlasSpec | None = None,
     cache_dir: str | os.PathLike[str] | None = None,
     rebuild: bool = False,
-    progress: Callable[[int], None] | None = None,
+    progress: Callable[[int], object] | None = None,
 ) -> Atlas:
     """Load the atlas of ``spec`` from the cache, building and saving it on a miss."""
     spec = spec or AtlasSpec()

@@ -112,6 +112,7 @@ def cmd_simulate(args: argparse.Namespace) -> dict[str, Any]:
         n_ood_fast=args.n_ood_fast,
         k_mean=args.k_mean,
         k_std=args.k_std,
+        interpolate_layers=args.interpolate_layers,
     )
     with tqdm(total=atlas.n_layers, desc="simulate", unit="layer", disable=args.quiet) as bar:
         ds = make_dataset(atlas, spec, args.seed, progress=bar.update)
@@ -232,6 +233,11 @@ def build_parser() -> argparse.ArgumentParser:
             sp.add_argument(f"--n-{name}", type=_nonneg_int, default=n, help=f"{name} runs")
         sp.add_argument("--k-mean", type=float, default=2e-6, help="mean Archard coefficient")
         sp.add_argument("--k-std", type=float, default=2e-7, help="std of the coefficient")
+        sp.add_argument(
+            "--interpolate-layers",
+            action="store_true",
+            help="blend adjacent atlas layers by volume (paper footnote 1)",
+        )
 
     a = sub.add_parser("atlas", help="build (or load from cache) the atlas; calibration figure")
     common(a, "out/atlas")

@@ -37,6 +37,7 @@ class DatasetSpec:
         k_std: Standard deviation of K [-].
         ood_shift_sigma: OOD mean shift in units of k_std [-].
         noise: Sensor noise added to the logged channels.
+        interpolate_layers: Blend adjacent atlas layers by volume (paper footnote 1).
     """
 
     n_train: int = 10
@@ -47,6 +48,7 @@ class DatasetSpec:
     k_std: float = 2e-7
     ood_shift_sigma: float = 6.0
     noise: SensorNoise = field(default_factory=SensorNoise)
+    interpolate_layers: bool = False
 
     def __post_init__(self) -> None:
         for name in ("n_train", "n_id", "n_ood_slow", "n_ood_fast"):
@@ -83,11 +85,13 @@ class Dataset:
         runs: (split, run_id, trajectory) per run, in plan order.
         logs: Split name -> event log (noisy channels plus ground truth).
         simulate_seconds: Wall time of the coupled simulation.
+        interpolate_layers: Whether adjacent layers were blended.
     """
 
     runs: list[tuple[str, str, Trajectory]]
     logs: dict[str, pd.DataFrame]
     simulate_seconds: float
+    interpolate_layers: bool = False
 
 
 def event_logs(
@@ -137,7 +141,7 @@ def event_logs(
     np.maximum(cols["energy_j"], 0.0, out=cols["energy_j"])
     np.maximum(cols["stop_dist_m"], 0.0, out=cols["stop_dist_m"])
     run_id = pd.Categorical.from_codes(
-        np.repeat(np.arange(len(runs), dtype=np.int32), sizes), [rid for rid, _ in runs]
+        np.repeat(np.arange(len(runs), dtype=np.int32), sizes), pd.Index([rid for rid, _ in runs])
     )
     data = {"run_id": run_id, "event": event}
     data.update((k, cols[k]) for k in names[:6])
@@ -154,7 +158,7 @@ def make_dataset(
     atlas: Atlas,
     spec: DatasetSpec | None = None,
     seed: int = 0,
-    progress: Callable[[int], None] | None = None,
+    progress: Callable[[int], object] | None = None,
 ) -> Dataset:
     """Simulate every run of ``spec`` to failure and build its event logs.
 
@@ -167,7 +171,9 @@ def make_dataset(
     plan = spec.plan(np.random.default_rng(k_seq))
     per_run = [s.spawn(2) for s in runs_seq.spawn(len(plan))]  # (conditions, noise) per run
     t0 = time.perf_counter()
-    trajs = simulate_runs(atlas, [k for _, _, k in plan], [c for c, _ in per_run], progress)
+    trajs = simulate_runs(
+        atlas, [k for _, _, k in plan], [c for c, _ in per_run], progress, spec.interpolate_layers
+    )
     sim_s = time.perf_counter() - t0
     runs = [(split, rid, t) for (split, rid, _), t in zip(plan, trajs, strict=True)]
     logs = {}
@@ -178,14 +184,14 @@ def make_dataset(
             spec.noise,
             [np.random.default_rng(per_run[i][1]) for i in idx],
         )
-    return Dataset(runs, logs, sim_s)
+    return Dataset(runs, logs, sim_s, spec.interpolate_layers)
 
 
 def write_dataset(
     ds: Dataset,
     out_dir: str | Path,
     formats: tuple[str, ...] = ("parquet", "csv"),
-    progress: Callable[[str], None] | None = None,
+    progress: Callable[[str], object] | None = None,
 ) -> list[Path]:
     """Write each split as ``{split}.parquet`` / ``{split}.csv`` under ``out_dir``."""
     paths = []

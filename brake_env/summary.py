@@ -40,7 +40,7 @@ def atlas_summary(atlas: Atlas) -> dict[str, Any]:
 
 def dataset_summary(ds: Dataset, atlas: Atlas, seed: int) -> dict[str, Any]:
     """Per-run and overall figures of a dataset; timings kept apart under ``timing_s``."""
-    runs = []
+    runs: list[dict[str, Any]] = []
     ratios = []
     for split, run_id, t in ds.runs:
         last = t.layer == t.layer[-1]
@@ -70,6 +70,7 @@ def dataset_summary(ds: Dataset, atlas: Atlas, seed: int) -> dict[str, Any]:
     n = np.array([r["events_to_failure"] for r in runs], dtype=float)
     return {
         "seed": seed,
+        "interpolate_layers": ds.interpolate_layers,
         "atlas": atlas_summary(atlas),
         "events_total": int(n.sum()),
         "life_events": life,

@@ -30,6 +30,27 @@ def test_vectorised_equals_per_event_reference(small_atlas) -> None:
         assert traj.final_volume_frac == ref.final_volume_frac
 
 
+def test_layer_blending_equals_per_event_reference(small_atlas) -> None:
+    # The closed-form solution of the blended recurrence against the literal event loop.
+    ss = seeds(2, seed=9)
+    fast = simulate_runs(small_atlas, [K_FAST, 0.7 * K_FAST], ss, interpolate_layers=True)
+    for k, s, traj in zip([K_FAST, 0.7 * K_FAST], ss, fast, strict=True):
+        ref = simulate_run_reference(small_atlas, k, s, interpolate_layers=True)
+        assert ref.n_events == traj.n_events
+        np.testing.assert_allclose(traj.volume_frac, ref.volume_frac, rtol=0, atol=1e-13)
+        np.testing.assert_allclose(traj.wear_frac, ref.wear_frac, rtol=1e-10)
+        np.testing.assert_allclose(traj.temp_mean_c, ref.temp_mean_c, rtol=1e-12)
+    # Wear per event rises with every layer at every node, so blending in the next layer
+    # wears more on the same stream: the blended pad is never thicker, and fails no later.
+    assert np.all(np.diff(small_atlas.fields["wear_per_k_m3"], axis=0) > 0)
+    plain = simulate_runs(small_atlas, [K_FAST, 0.7 * K_FAST], ss)
+    for p, f in zip(plain, fast, strict=True):
+        n = f.n_events
+        assert np.all(f.volume_frac[:n] <= p.volume_frac[:n])  # equal while w = 0 at V = 1
+        assert f.volume_frac[n - 1] < p.volume_frac[n - 1]
+        assert 0.97 * p.n_events < n <= p.n_events
+
+
 def test_a_run_does_not_depend_on_its_neighbours(small_atlas) -> None:
     ss = seeds(4)
     together = simulate_runs(small_atlas, [K_FAST, 2e-6 * 5, K_FAST * 2, K_FAST], ss)
