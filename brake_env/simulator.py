@@ -27,6 +27,17 @@ F64 = NDArray[np.float64]
 _RESPONSE = ("temp_mean_c", "stop_dist_m", "wear_per_k_m3")
 _CHUNK_MIN = 4096
 _BATCH_EVENTS = 16_384
+# Per-event arrays of a Trajectory, in field order.
+TRAJECTORY_ARRAYS = (
+    "speed_mps",
+    "mass_kg",
+    "slope_rad",
+    "temp_mean_c",
+    "stop_dist_m",
+    "wear_frac",
+    "volume_frac",
+    "layer",
+)
 
 
 @dataclass(frozen=True)
@@ -218,15 +229,7 @@ def simulate_runs(
 class _RunColumns:
     """Per-run output columns, preallocated and grown by doubling."""
 
-    _NAMES = (
-        "speed_mps",
-        "mass_kg",
-        "slope_rad",
-        "temp_mean_c",
-        "stop_dist_m",
-        "wear_frac",
-        "volume_frac",
-    )
+    _NAMES = TRAJECTORY_ARRAYS[:-1]  # all but the int16 layer
 
     def __init__(self, capacity: int) -> None:
         self.n = 0

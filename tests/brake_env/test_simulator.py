@@ -1,7 +1,12 @@
 import numpy as np
 import pytest
 
-from brake_env.simulator import expected_life, simulate_run_reference, simulate_runs
+from brake_env.simulator import (
+    TRAJECTORY_ARRAYS,
+    expected_life,
+    simulate_run_reference,
+    simulate_runs,
+)
 
 K_FAST = 4e-5  # 20x the nominal coefficient: short lives for quick tests
 
@@ -16,16 +21,7 @@ def test_vectorised_equals_per_event_reference(small_atlas) -> None:
     for k, s, traj in zip([K_FAST, 1.3 * K_FAST, 0.8 * K_FAST], ss, fast, strict=True):
         ref = simulate_run_reference(small_atlas, k, s)
         assert ref.n_events == traj.n_events
-        for f in (
-            "speed_mps",
-            "mass_kg",
-            "slope_rad",
-            "temp_mean_c",
-            "stop_dist_m",
-            "wear_frac",
-            "volume_frac",
-            "layer",
-        ):
+        for f in TRAJECTORY_ARRAYS:
             np.testing.assert_array_equal(getattr(traj, f), getattr(ref, f), err_msg=f)
         assert traj.final_volume_frac == ref.final_volume_frac
 
@@ -102,3 +98,12 @@ def test_bad_wear_coefficients_are_rejected(small_atlas) -> None:
         simulate_runs(small_atlas, [-1e-6], seeds(1))
     with pytest.raises(ValueError, match="one seed per"):
         simulate_runs(small_atlas, [1e-6, 2e-6], seeds(1))
+
+
+def test_trajectory_array_names_match_the_dataclass() -> None:
+    import dataclasses
+
+    from brake_env.simulator import Trajectory
+
+    names = [f.name for f in dataclasses.fields(Trajectory)]
+    assert names == ["wear_coeff", *TRAJECTORY_ARRAYS, "final_volume_frac"]
