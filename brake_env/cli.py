@@ -1,4 +1,4 @@
-"""``brakewear``: the command line. Subcommands: atlas, simulate, demo."""
+"""brakewear: brake-pad wear simulation and predictive-maintenance testbed."""
 
 from __future__ import annotations
 
@@ -203,7 +203,8 @@ Seed {s["seed"]}; total {seconds:.1f} s. Atlas `{atlas["hash"][:16]}`.
 
 # ---------------------------------------------------------------------- parser
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="brakewear", description=__doc__)
+    fmt = argparse.ArgumentDefaultsHelpFormatter
+    p = argparse.ArgumentParser(prog="brakewear", description=__doc__, formatter_class=fmt)
     sub = p.add_subparsers(dest="command", required=True)
 
     def common(sp: argparse.ArgumentParser, out_default: str) -> None:
@@ -239,18 +240,28 @@ def build_parser() -> argparse.ArgumentParser:
             help="blend adjacent atlas layers by volume (paper footnote 1)",
         )
 
-    a = sub.add_parser("atlas", help="build (or load from cache) the atlas; calibration figure")
+    a = sub.add_parser(
+        "atlas",
+        formatter_class=fmt,
+        help="build (or load from cache) the atlas; calibration figure",
+    )
     common(a, "out/atlas")
     a.add_argument("--rebuild", action="store_true", help="ignore the cache")
     a.set_defaults(func=cmd_atlas)
 
-    s = sub.add_parser("simulate", help="simulate the train / ID / OOD run-to-failure datasets")
+    s = sub.add_parser(
+        "simulate",
+        formatter_class=fmt,
+        help="simulate the train / ID / OOD run-to-failure datasets",
+    )
     common(s, "out/data")
     s.add_argument("--atlas", default=None, help="atlas .npz to use instead of the cache")
     sim_args(s, "parquet,csv")
     s.set_defaults(func=cmd_simulate)
 
-    d = sub.add_parser("demo", help="the main job on small defaults: atlas, datasets, report")
+    d = sub.add_parser(
+        "demo", formatter_class=fmt, help="the main job on small defaults: atlas, datasets, report"
+    )
     common(d, "out/demo")
     d.add_argument("--rebuild", action="store_true", help="ignore the atlas cache")
     sim_args(d, "parquet")
