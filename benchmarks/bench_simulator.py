@@ -22,7 +22,7 @@ import tracemalloc
 import numpy as np
 
 from brake_env.atlas import Atlas, AtlasSpec
-from brake_env.datasets import DatasetSpec, make_dataset
+from brake_env.datasets import DatasetSpec, make_dataset, seeded_plan
 from brake_env.simulator import simulate_run_reference, simulate_runs
 
 
@@ -46,9 +46,9 @@ def main() -> dict[str, float]:
     build_first, build_s, atlas = timed(args.repeats, lambda: Atlas.build(AtlasSpec()))
 
     spec = DatasetSpec()
-    plan = spec.plan(np.random.default_rng(np.random.SeedSequence(0).spawn(2)[0]))
+    plan, per_run = seeded_plan(spec, seed=0)  # the runs of `brakewear simulate --seed 0`
     ks = [k for _, _, k in plan]
-    seeds = np.random.SeedSequence(0).spawn(len(ks))
+    seeds = [cond for cond, _ in per_run]
     sim_first, sim_s, trajs = timed(args.repeats, lambda: simulate_runs(atlas, ks, seeds))
     n_events = sum(t.n_events for t in trajs)
 

@@ -44,14 +44,6 @@ def check_range(obj: object, name: str, lo: float, hi: float) -> None:
         raise ValueError(f"{type(obj).__name__}.{name} must be in [{lo}, {hi}], got {v}")
 
 
-def check_order(obj: object, lo_name: str, hi_name: str) -> None:
-    lo, hi = _value(obj, lo_name), _value(obj, hi_name)
-    if not lo < hi:
-        raise ValueError(
-            f"{type(obj).__name__}: {lo_name} ({lo}) must be smaller than {hi_name} ({hi})"
-        )
-
-
 def from_dict(cls: type[T], data: dict[str, Any]) -> T:
     """Build dataclass ``cls`` from ``data``, rejecting unknown keys by name."""
     fields = {f.name for f in dataclasses.fields(cls)}  # type: ignore[arg-type]

@@ -14,6 +14,7 @@ import hashlib
 import json
 import os
 import time
+import zipfile
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -26,7 +27,10 @@ from brake_env.params import BrakeModel
 from brake_env.physics import critical_volume, simulate_events
 
 F64 = NDArray[np.float64]
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2
+# Bump whenever brake_env.physics or brake_env.materials change what they compute: the
+# version is hashed with the parameters, so cached atlases of older physics are not reused.
+PHYSICS_VERSION = 2
 _LAYERS_PER_CHUNK = 8
 FIELDS = (
     "temp_mean_c",
@@ -74,8 +78,11 @@ class AtlasSpec:
         return cls(model=model, **data)
 
     def content_hash(self) -> str:
-        """SHA-256 of the canonical JSON of the spec and the file format version."""
-        payload = json.dumps({"format": FORMAT_VERSION, "spec": self.to_dict()}, sort_keys=True)
+        """SHA-256 of the spec, the physics version and the file format version."""
+        payload = json.dumps(
+            {"format": FORMAT_VERSION, "physics": PHYSICS_VERSION, "spec": self.to_dict()},
+            sort_keys=True,
+        )
         return hashlib.sha256(payload.encode()).hexdigest()
 
 
@@ -88,7 +95,8 @@ class Atlas:
         volumes: Pad volume fraction of each layer, 1.0 first, decreasing [-].
         speed_mps, mass_kg, slope_rad: Grid axes.
         fields: Name -> array of shape (layers, n_speed, n_mass, n_slope); see ``FIELDS``.
-        critical_volume: Volume fraction below which the severe event cannot stop [-].
+        critical_volume: Volume fraction below which the severe event cannot stop, from the
+            physics; 0.0 if it always stops [-].
         build_seconds: Wall time of the build (kept in the file, so also after loading).
     """
 
@@ -118,9 +126,10 @@ class Atlas:
         mass = np.linspace(*env.mass_kg, spec.n_mass)
         slope = np.radians(np.linspace(*env.slope_deg, spec.n_slope))
         v_crit = critical_volume(spec.model)
-        n_layers = int(np.floor((1.0 - v_crit) / spec.layer_step + 1e-9)) + 1
+        v_end = max(v_crit, spec.model.brake.min_volume_frac)  # see failure_volume
+        n_layers = int(np.floor((1.0 - v_end) / spec.layer_step + 1e-9)) + 1
         volumes = (1.0 - spec.layer_step * np.arange(n_layers)).astype(np.float64)
-        volumes = volumes[volumes > v_crit]
+        volumes = volumes[volumes > v_end]
         fields = {
             name: np.empty((volumes.size, speed.size, mass.size, slope.size)) for name in FIELDS
         }
@@ -145,6 +154,18 @@ class Atlas:
                 progress(hi - lo)
         return cls(spec, volumes, speed, mass, slope, fields, v_crit, time.perf_counter() - t0)
 
+    @property
+    def failure_volume(self) -> float:
+        """End of pad life: the critical volume, or the wear-out limit if that is higher."""
+        return max(self.critical_volume, self.spec.model.brake.min_volume_frac)
+
+    @property
+    def failure_mode(self) -> str:
+        """``cannot-stop`` (the severe event fails) or ``worn-out`` (the wear-out limit)."""
+        if self.critical_volume >= self.spec.model.brake.min_volume_frac:
+            return "cannot-stop"
+        return "worn-out"
+
     # ---------------------------------------------------------------- persistence
     @property
     def content_hash(self) -> str:
@@ -166,21 +187,20 @@ class Atlas:
             "build_seconds": self.build_seconds,
         }
         tmp = path.with_name(path.name + ".tmp.npz")
-        arrays: dict[str, Any] = {
-            "meta": np.array(json.dumps(meta, sort_keys=True)),
-            "volumes": self.volumes,
-            "speed_mps": self.speed_mps,
-            "mass_kg": self.mass_kg,
-            "slope_rad": self.slope_rad,
-            **{f"field_{k}": v for k, v in self.fields.items()},
-        }
-        np.savez_compressed(tmp, **arrays)
+        arrays = self._arrays()
+        meta["arrays_sha256"] = _digest(arrays)
+        payload: dict[str, Any] = {"meta": np.array(json.dumps(meta, sort_keys=True)), **arrays}
+        np.savez_compressed(tmp, **payload)
         tmp.replace(path)  # atomic: a concurrent reader never sees half a file
         return path
 
     @classmethod
     def load(cls, path: str | os.PathLike[str]) -> Atlas:
-        """Read an atlas written by :meth:`save`; checks its format and content hash."""
+        """Read an atlas written by :meth:`save`.
+
+        Checks the format, that the parameters match their hash, that the arrays match
+        their checksum and the grid of the parameters; raises ValueError otherwise.
+        """
         with np.load(path, allow_pickle=False) as z:
             meta = json.loads(str(z["meta"]))
             if meta.get("format") != FORMAT_VERSION:
@@ -189,18 +209,35 @@ class Atlas:
                 )
             spec = AtlasSpec.from_dict(meta["spec"])
             if spec.content_hash() != meta["hash"]:
-                raise ValueError(f"{path}: content hash does not match the stored parameters")
-            fields = {k: z[f"field_{k}"] for k in FIELDS}
-            return cls(
-                spec,
-                z["volumes"],
-                z["speed_mps"],
-                z["mass_kg"],
-                z["slope_rad"],
-                fields,
-                float(meta["critical_volume"]),
-                float(meta.get("build_seconds", 0.0)),
-            )
+                raise ValueError(
+                    f"{path}: parameters or physics version do not match the stored hash"
+                )
+            arrays = {k: z[k] for k in z.files if k != "meta"}
+        if _digest(arrays) != meta.get("arrays_sha256"):
+            raise ValueError(f"{path}: arrays do not match their checksum (corrupt or edited)")
+        fields = {k: arrays[f"field_{k}"] for k in FIELDS}
+        grid = (spec.n_speed, spec.n_mass, spec.n_slope)
+        if any(f.shape != (arrays["volumes"].size, *grid) for f in fields.values()):
+            raise ValueError(f"{path}: field shapes do not match {arrays['volumes'].size} x {grid}")
+        return cls(
+            spec,
+            arrays["volumes"],
+            arrays["speed_mps"],
+            arrays["mass_kg"],
+            arrays["slope_rad"],
+            fields,
+            float(meta["critical_volume"]),
+            float(meta.get("build_seconds", 0.0)),
+        )
+
+    def _arrays(self) -> dict[str, F64]:
+        return {
+            "volumes": self.volumes,
+            "speed_mps": self.speed_mps,
+            "mass_kg": self.mass_kg,
+            "slope_rad": self.slope_rad,
+            **{f"field_{k}": v for k, v in self.fields.items()},
+        }
 
     # ---------------------------------------------------------------- queries
     def layer_of(self, volume_frac: ArrayLike) -> NDArray[np.intp]:
@@ -270,10 +307,12 @@ class Atlas:
 
     # ---------------------------------------------------------------- internals
     def _check_volume(self, v: F64) -> None:
-        if v.size and (np.nanmax(v) > 1.0 + 1e-12 or np.nanmin(v) < self.critical_volume):
+        if v.size and not np.all(np.isfinite(v)):
+            raise ValueError("volume_frac must be finite (got NaN or inf)")
+        if v.size and (v.max() > 1.0 + 1e-12 or v.min() < self.failure_volume):
             raise ValueError(
-                f"volume_frac must be in [{self.critical_volume:.4f}, 1]"
-                f" (critical volume to fresh), got range [{np.nanmin(v)}, {np.nanmax(v)}]"
+                f"volume_frac must be in [{self.failure_volume:.4f}, 1] (end of life to fresh),"
+                f" got range [{v.min():g}, {v.max():g}]"
             )
 
     def _locate(self, s: F64, m: F64, th: F64, clip: bool) -> tuple[NDArray[np.intp], F64]:
@@ -285,6 +324,8 @@ class Atlas:
             ("slope_rad", th, self.slope_rad),
         ):
             lo, hi = axis[0], axis[-1]
+            if x.size and not np.all(np.isfinite(x)):
+                raise ValueError(f"{name} must be finite (got NaN or inf)")
             if clip:
                 x = np.clip(x, lo, hi)
             elif x.size and (np.min(x) < lo - 1e-9 or np.max(x) > hi + 1e-9):
@@ -335,6 +376,16 @@ class Atlas:
         return {n: out[..., i] for i, n in enumerate(names)}
 
 
+def _digest(arrays: dict[str, np.ndarray]) -> str:
+    """SHA-256 over the names, shapes and bytes of the arrays, in name order."""
+    h = hashlib.sha256()
+    for k in sorted(arrays):
+        a = np.ascontiguousarray(arrays[k], dtype=np.float64)
+        h.update(f"{k}{a.shape}".encode())
+        h.update(a.tobytes())
+    return h.hexdigest()
+
+
 def _trapezoid_weights(n: int) -> F64:
     w = np.ones(n)
     w[[0, -1]] = 0.5
@@ -358,8 +409,10 @@ def cached_atlas(
     path = Path(cache_dir or default_cache_dir()) / f"atlas-{spec.content_hash()[:16]}.npz"
     if path.exists() and not rebuild:
         try:
-            return Atlas.load(path)
-        except (ValueError, KeyError, OSError):
+            atlas = Atlas.load(path)
+            if atlas.content_hash == spec.content_hash():
+                return atlas
+        except (ValueError, KeyError, OSError, EOFError, zipfile.BadZipFile):
             pass  # stale or corrupt cache entry: rebuild it below
     atlas = Atlas.build(spec, progress)
     atlas.save(path)

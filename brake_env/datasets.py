@@ -55,6 +55,8 @@ class DatasetSpec:
             n = getattr(self, name)
             if not isinstance(n, int) or n < 0:
                 raise ValueError(f"DatasetSpec.{name} must be an int >= 0, got {n!r}")
+        if self.n_train + self.n_id + self.n_ood_slow + self.n_ood_fast == 0:
+            raise ValueError("DatasetSpec: no runs to simulate (all run counts are 0)")
         check_positive(self, "k_mean", "k_std")
         if self.k_mean - (self.ood_shift_sigma + 3.0) * self.k_std <= 0 and self.n_ood_slow:
             raise ValueError("DatasetSpec: the slow OOD mean is too close to K = 0")
@@ -154,6 +156,19 @@ def event_logs(
     return pd.DataFrame(data, copy=False)
 
 
+def seeded_plan(
+    spec: DatasetSpec, seed: int
+) -> tuple[list[tuple[str, str, float]], list[list[np.random.SeedSequence]]]:
+    """The runs of ``spec`` with their K, and per run its (conditions, noise) seeds.
+
+    ``SeedSequence(seed)`` spawns one stream for the K draws and one child per run, which
+    spawns the run's operating-condition and sensor-noise streams.
+    """
+    k_seq, runs_seq = np.random.SeedSequence(seed).spawn(2)
+    plan = spec.plan(np.random.default_rng(k_seq))
+    return plan, [s.spawn(2) for s in runs_seq.spawn(len(plan))]
+
+
 def make_dataset(
     atlas: Atlas,
     spec: DatasetSpec | None = None,
@@ -162,14 +177,10 @@ def make_dataset(
 ) -> Dataset:
     """Simulate every run of ``spec`` to failure and build its event logs.
 
-    Randomness: ``SeedSequence(seed)`` spawns one stream for the K draws and, per run, one
-    for operating conditions and one for sensor noise; the same seed gives the same data.
+    Randomness as :func:`seeded_plan` lays it out: the same seed gives the same data.
     """
     spec = spec or DatasetSpec()
-    root = np.random.SeedSequence(seed)
-    k_seq, runs_seq = root.spawn(2)
-    plan = spec.plan(np.random.default_rng(k_seq))
-    per_run = [s.spawn(2) for s in runs_seq.spawn(len(plan))]  # (conditions, noise) per run
+    plan, per_run = seeded_plan(spec, seed)
     t0 = time.perf_counter()
     trajs = simulate_runs(
         atlas, [k for _, _, k in plan], [c for c, _ in per_run], progress, spec.interpolate_layers

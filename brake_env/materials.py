@@ -6,7 +6,9 @@ inside the square (DESIGN 3):
     mu(T) = mu0 * (mu1 + mu2 / ((mu3 * (T - mu4))**2 + 1))
     H(T)  = H0 * (H1 + H2 / ((H3 * (T - H4))**2 + 1) + H5 / ((H6 * (T - H7))**2 + 1))
 
-with T in degrees Celsius and H in MPa. H goes negative above ~1030 C, so it is floored.
+with T in degrees Celsius and H in MPa. H goes negative above ~1030 C, so it is floored,
+smoothly (softplus over ``floor_mpa``): a hard max() puts a kink in the wear rate that the
+fixed-step integrator crosses in the hottest events, costing it 0.6% of their wear.
 """
 
 from __future__ import annotations
@@ -52,7 +54,8 @@ class HardnessParams:
         h2, h5: Heights of the two peaks [-].
         h3, h6: Inverse widths of the two peaks [1/K].
         h4, h7: Temperatures of the two peaks [deg C].
-        floor_mpa: Lower bound applied to H [MPa]; the fit goes negative above ~1030 C.
+        floor_mpa: Smooth lower bound of H, and the width of its transition [MPa]; the fit
+            goes negative above ~1030 C. Values more than ~20 floors above it are unchanged.
     """
 
     h0: float = 137.0
@@ -78,10 +81,11 @@ def friction(temp_c: ArrayLike, p: FrictionParams | None = None) -> NDArray[np.f
 
 
 def hardness_mpa(temp_c: ArrayLike, p: HardnessParams | None = None) -> NDArray[np.float64]:
-    """Hot hardness H(T) [MPa] at temperature ``temp_c`` [deg C], floored at ``p.floor_mpa``."""
+    """Hot hardness H(T) [MPa] at temperature ``temp_c`` [deg C], smoothly floored."""
     p = p or HardnessParams()
     t = np.asarray(temp_c, dtype=np.float64)
     h = p.h0 * (
         p.h1 + p.h2 / ((p.h3 * (t - p.h4)) ** 2 + 1.0) + p.h5 / ((p.h6 * (t - p.h7)) ** 2 + 1.0)
     )
-    return np.maximum(h, p.floor_mpa)
+    s = p.floor_mpa
+    return s + s * np.logaddexp(0.0, (h - s) / s)

@@ -62,6 +62,8 @@ class BrakeParams:
             friction material (steel backing plates) [J/K].
         start_temp_c: Brake temperature at the start of an event, the steady level of the
             hot downhill duty cycle [deg C].
+        min_volume_frac: Wear-out limit: the pad is spent at this fraction of its friction
+            material even if it can still stop the most severe event [-].
     """
 
     n_pads: int = 2
@@ -72,6 +74,7 @@ class BrakeParams:
     pad_heat_capacity_j_per_k: float = 720.0
     backing_heat_capacity_j_per_k: float = 350.0
     start_temp_c: float = 450.0
+    min_volume_frac: float = 0.05
 
     def __post_init__(self) -> None:
         if not isinstance(self.n_pads, int) or self.n_pads < 1:
@@ -86,6 +89,7 @@ class BrakeParams:
         )
         check_nonnegative(self, "backing_heat_capacity_j_per_k")
         check_range(self, "start_temp_c", -50.0, 900.0)
+        check_range(self, "min_volume_frac", 0.001, 0.9)
 
     @property
     def bore_area_m2(self) -> float:

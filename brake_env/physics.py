@@ -98,6 +98,8 @@ def simulate_events(
     )
     shape = v0.shape
     v0, m, theta, vol = (x.ravel() for x in (v0, m, theta, vol))
+    if not all(np.all(np.isfinite(x)) for x in (v0, m, theta, vol)):
+        raise ValueError("speed, mass, slope and volume_frac must be finite (got NaN or inf)")
     if np.any(v0 <= 0) or np.any(m <= 0) or np.any((vol <= 0) | (vol > 1)):
         raise ValueError("speed and mass must be > 0 and volume_frac in (0, 1]")
     t_start = np.broadcast_to(

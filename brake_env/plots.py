@@ -73,7 +73,7 @@ def plot_calibration(
     ax[1, 0].legend(fontsize=8)
 
     v, m, th = atlas.spec.model.envelope.severe_event
-    vols = np.linspace(1.0, max(atlas.critical_volume - 0.05, 0.01), 300)
+    vols = np.linspace(1.0, max(atlas.failure_volume - 0.05, 0.01), 300)
     r = simulate_events(v, m, th, vols, atlas.spec.model)
     a = ax[1, 1]
     lines = a.plot(vols * 100, r.stop_dist_m, "tab:purple", label="stopping distance [m]")
@@ -81,10 +81,10 @@ def plot_calibration(
     lines += a2.plot(vols * 100, r.temp_peak_c, "tab:red", label="peak temperature [°C]")
     lines.append(
         a.axvline(
-            atlas.critical_volume * 100,
+            atlas.failure_volume * 100,
             color="k",
             ls="--",
-            label=f"failure: {atlas.critical_volume:.1%} (bisection)",
+            label=f"end of life: {atlas.failure_volume:.1%} ({atlas.failure_mode})",
         )
     )
     a.set(

@@ -8,6 +8,7 @@ temperature, line pressure and ground truth. Unknown columns are kept. Bad input
 
 from __future__ import annotations
 
+import csv
 import math
 import os
 from dataclasses import dataclass
@@ -28,7 +29,8 @@ class Column:
         name: Column name in the file.
         kind: ``str``, ``int``, ``float`` or ``bool``.
         unit: Physical unit, for documentation.
-        lo, hi: Physically possible range (inclusive); values outside are rejected.
+        lo, hi: Physically possible range; values outside, and infinities, are rejected.
+        lo_open: The lower bound itself is impossible (a mass of 0 kg).
         nan_ok: Missing values allowed (a sensor dropout), else rejected.
         description: One line for the docs.
     """
@@ -40,13 +42,14 @@ class Column:
     hi: float = math.inf
     nan_ok: bool = False
     description: str = ""
+    lo_open: bool = False
 
 
 REQUIRED = (
     Column("run_id", "str", "-", description="pad/run identifier"),
     Column("event", "int", "-", 0, math.inf, description="braking event index, 0-based"),
     Column("speed_kmh", "float", "km/h", 0, 200, True, "wheel speed at brake onset"),
-    Column("mass_kg", "float", "kg", 0, 1e6, True, "vehicle mass"),
+    Column("mass_kg", "float", "kg", 0, 1e6, True, "vehicle mass", lo_open=True),
     Column("slope_rad", "float", "rad", -math.pi / 2, math.pi / 2, True, "downhill slope"),
     Column("energy_j", "float", "J", 0, math.inf, True, "kinetic energy at brake onset"),
     Column("temp_c", "float", "deg C", -273.15, 3000, True, "mean brake temperature of the event"),
@@ -71,9 +74,8 @@ class EventLogError(ValueError):
 
 
 def _where(df: pd.DataFrame, i: int, source: str) -> str:
-    run = (
-        f", run {df['run_id'].iloc[i]!r}" if "run_id" in df and df["run_id"].dtype != float else ""
-    )
+    has_run = "run_id" in df and pd.notna(df["run_id"].iloc[i])
+    run = f", run '{df['run_id'].iloc[i]}'" if has_run else ""
     line = f" (CSV line {i + 2})" if source.endswith(".csv") else ""
     return f"row {i}{line}{run}"
 
@@ -96,18 +98,23 @@ def validate_event_log(df: pd.DataFrame, source: str = "") -> pd.DataFrame:
     for col in (c for c in REQUIRED + OPTIONAL if c.name in df.columns):
         out[col.name] = _coerce(out[col.name], col, df, pre, source)
 
-    # Events strictly increasing within each run (runs may interleave).
-    ev = out["event"].to_numpy()
+    # Within each run (runs may interleave): events strictly increasing, times not falling.
     codes = pd.factorize(out["run_id"])[0]
     order = np.argsort(codes, kind="stable")
     same = codes[order][1:] == codes[order][:-1]
-    bad = np.flatnonzero(same & (ev[order][1:] <= ev[order][:-1]))
-    if bad.size:
-        i = int(order[bad[0] + 1])
-        raise EventLogError(
-            f"{pre}column 'event', {_where(out, i, source)}: event {ev[i]} does not increase"
-            f" (previous event of this run is {ev[order][bad[0]]})"
-        )
+    for name, strict in (("event", True), ("time_s", False)):
+        if name not in out:
+            continue
+        x = out[name].to_numpy()[order]
+        step_bad = (x[1:] <= x[:-1]) if strict else (x[1:] < x[:-1])
+        bad = np.flatnonzero(same & step_bad)
+        if bad.size:
+            i = int(order[bad[0] + 1])
+            what = "does not increase" if strict else "goes back in time"
+            raise EventLogError(
+                f"{pre}column '{name}', {_where(out, i, source)}: {x[bad[0] + 1]:g} {what}"
+                f" (previous value in this run is {x[bad[0]]:g})"
+            )
     return out
 
 
@@ -133,54 +140,108 @@ def _coerce(s: pd.Series, col: Column, df: pd.DataFrame, pre: str, source: str) 
             i = int(np.argmax(bad))
             raise EventLogError(
                 f"{pre}column '{name}', {_where(df, i, source)}: expected a boolean,"
-                f" got {s.iloc[i]!r}"
+                f" got '{s.iloc[i]}'"
             )
         return low.map(mapping).astype(bool)
 
+    if s.dtype == bool:
+        raise EventLogError(f"{pre}column '{name}': expected numbers, got a boolean column")
     num = pd.to_numeric(s, errors="coerce")
     not_number = (num.isna() & s.notna()).to_numpy()
     if not_number.any():
         i = int(np.argmax(not_number))
         raise EventLogError(
-            f"{pre}column '{name}', {_where(df, i, source)}: expected a number, got {s.iloc[i]!r}"
+            f"{pre}column '{name}', {_where(df, i, source)}: expected a number, got '{s.iloc[i]}'"
         )
     x = num.to_numpy(dtype=np.float64, na_value=np.nan)
     nan = np.isnan(x)
     if nan.any() and not col.nan_ok:
         i = int(np.argmax(nan))
         raise EventLogError(f"{pre}column '{name}', {_where(df, i, source)}: missing value (NaN)")
-    bad = ~nan & ((x < col.lo) | (x > col.hi))
+    below = (x <= col.lo) if col.lo_open else (x < col.lo)
+    bad = np.isinf(x) | below | (x > col.hi)
     if bad.any():
         i = int(np.argmax(bad))
+        lo = "(" if col.lo_open else "["
         raise EventLogError(
-            f"{pre}column '{name}', {_where(df, i, source)}: value {x[i]!r} is outside the"
-            f" physically possible range [{col.lo}, {col.hi}] {col.unit}"
+            f"{pre}column '{name}', {_where(df, i, source)}: value {float(x[i]):g} is outside the"
+            f" physically possible range {lo}{col.lo:g}, {col.hi:g}] {col.unit}"
         )
     if col.kind == "int":
-        frac = ~nan & (x != np.round(x))
+        frac = ~nan & ((x != np.round(x)) | (np.abs(x) > 2.0**53))
         if frac.any():
             i = int(np.argmax(frac))
             raise EventLogError(
-                f"{pre}column '{name}', {_where(df, i, source)}: expected an integer, got {x[i]!r}"
+                f"{pre}column '{name}', {_where(df, i, source)}: expected an integer,"
+                f" got {float(x[i])!r}"
             )
         return pd.Series(x.astype(np.int64), index=s.index, name=name)
     return pd.Series(x, index=s.index, name=name)
 
 
 def read_event_log(path: str | os.PathLike[str]) -> pd.DataFrame:
-    """Read and validate a ``.parquet`` or ``.csv`` event log."""
+    """Read and validate a ``.parquet`` or ``.csv`` event log.
+
+    Raises:
+        FileNotFoundError: no such file.
+        EventLogError: anything wrong with its content, naming the column and row or line.
+    """
     path = Path(path)
     if not path.exists():
         raise FileNotFoundError(f"event log {path} does not exist")
     suffix = path.suffix.lower()
     if suffix == ".parquet":
-        df = pq.read_table(path).to_pandas()
+        df = _read_parquet(path)
     elif suffix == ".csv":
-        # Everything as text first, so a stray word is reported by column and row.
-        df = pd.read_csv(path, dtype=str, keep_default_na=True)
+        df = _read_csv(path)
     else:
         raise EventLogError(f"{path}: unsupported file type {suffix!r}; use .parquet or .csv")
     return validate_event_log(df, str(path))
+
+
+def _check_header(path: Path, names: list[str]) -> None:
+    if not names:
+        raise EventLogError(f"{path}: no columns (empty file?)")
+    dup = sorted({c for c in names if names.count(c) > 1})
+    if dup:
+        raise EventLogError(f"{path}: duplicate column(s) {dup}")
+
+
+def _read_parquet(path: Path) -> pd.DataFrame:
+    try:
+        names = list(pq.read_schema(path).names)
+    except (pa.ArrowException, OSError) as e:
+        raise EventLogError(f"{path}: not a readable Parquet file ({e})") from None
+    _check_header(path, names)
+    return pq.read_table(path).to_pandas()
+
+
+def _read_csv(path: Path) -> pd.DataFrame:
+    """Every column as text, so a stray word is reported by column and row; only empty
+    fields are missing, so a run called "NA" stays a run called "NA"."""
+    with open(path, newline="") as f:
+        header = next(csv.reader(f), [])
+    _check_header(path, header)
+    opts = pa_csv.ConvertOptions(
+        column_types={c: pa.string() for c in header}, null_values=[""], strings_can_be_null=True
+    )
+    try:
+        table = pa_csv.read_csv(path, convert_options=opts)
+    except pa.ArrowInvalid as e:
+        raise EventLogError(f"{path}: {_ragged_line(path, len(header)) or e}") from None
+    return table.to_pandas()
+
+
+def _ragged_line(path: Path, n_fields: int) -> str | None:
+    """Where a CSV parse error is: the first line whose field count differs from the header."""
+    with open(path, newline="") as f:
+        for line_no, row in enumerate(csv.reader(f), start=1):
+            if len(row) != n_fields:
+                return (
+                    f"CSV line {line_no} (row {line_no - 2}) has {len(row)} fields,"
+                    f" the header has {n_fields}"
+                )
+    return None
 
 
 def write_event_log(df: pd.DataFrame, path: str | os.PathLike[str]) -> Path:

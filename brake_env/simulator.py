@@ -135,7 +135,7 @@ def conditions_from_uniform(atlas: Atlas, u: F64) -> tuple[F64, F64, F64]:
 def expected_life(atlas: Atlas, wear_coeff: float | F64) -> F64:
     """Expected events to failure for coefficient(s) K, from the atlas's mean wear per layer."""
     k = np.asarray(wear_coeff, dtype=np.float64)[..., None]
-    span = np.append(-np.diff(atlas.volumes), atlas.volumes[-1] - atlas.critical_volume)
+    span = np.append(-np.diff(atlas.volumes), atlas.volumes[-1] - atlas.failure_volume)
     per_event = k * atlas.expected("wear_per_k_m3") / atlas.spec.model.brake.pad_volume_m3
     return (span / per_event).sum(axis=-1)
 
@@ -165,6 +165,7 @@ def simulate_runs(
         raise ValueError(
             f"wear coefficients must be finite and > 0, got {ks[(ks <= 0) | ~np.isfinite(ks)]}"
         )
+    _check_wear_per_event(atlas, float(ks.max()))
     n_runs = ks.size
     pad_v = atlas.spec.model.brake.pad_volume_m3
     mean_w = atlas.expected("wear_per_k_m3")
@@ -175,10 +176,10 @@ def simulate_runs(
     outs = [_RunColumns(int(c)) for c in capacity]
     pos = np.zeros(n_runs, dtype=np.int64)
     vol = np.ones(n_runs)
-    lowers = np.append(atlas.volumes[1:], atlas.critical_volume)
+    lowers = np.append(atlas.volumes[1:], atlas.failure_volume)
 
     for j, lower in enumerate(lowers):
-        alive = np.flatnonzero(vol >= lower)  # runs not yet below this layer's lower edge
+        alive = np.flatnonzero(vol > lower)  # runs not yet down to this layer's lower edge
         # Volume = layer start - wear accumulated in the layer, summed in event order.
         start, acc = vol.copy(), np.zeros(n_runs)
         # Block: expected events to cross the layer with a margin, so a second pass is rare.
@@ -199,7 +200,7 @@ def simulate_runs(
                         atlas, j, sp, m, th, ks[todo], start[todo], acc[todo], interpolate_layers
                     )
                     after = start[todo, None] - cum
-                    crossed = after < lower
+                    crossed = after <= lower  # reaching a level activates its layer
                     done = crossed.any(axis=1)
                     # Events kept per run: up to the crossing one, or the whole block if none.
                     n_keep = np.where(done, np.argmax(crossed, axis=1) + 1, size)
@@ -276,6 +277,17 @@ class _RunColumns:
         )
 
 
+def _check_wear_per_event(atlas: Atlas, k_max: float) -> None:
+    """Reject K so large that a mean event wears more than half a layer: the atlas then no
+    longer resolves the coupling (and no real pad loses 0.5% in one stop)."""
+    mean_end = k_max * atlas.expected("wear_per_k_m3")[-1] / atlas.spec.model.brake.pad_volume_m3
+    if mean_end > 0.5 * atlas.spec.layer_step:
+        raise ValueError(
+            f"wear coefficient {k_max:.3g} wears {mean_end:.3g} of the pad in a mean event,"
+            f" more than half an atlas layer ({0.5 * atlas.spec.layer_step:g})"
+        )
+
+
 def _layer_block(
     atlas: Atlas,
     j: int,
@@ -325,11 +337,12 @@ def simulate_run_reference(
 
     The reference for tests and the benchmark baseline: one atlas query per event.
     """
+    _check_wear_per_event(atlas, wear_coeff)
     pad_v = atlas.spec.model.brake.pad_volume_m3
     stream = _Stream(
         np.random.default_rng(seed), int(1.1 * expected_life(atlas, wear_coeff)) + 1000
     )
-    lowers = np.append(atlas.volumes[1:], atlas.critical_volume)
+    lowers = np.append(atlas.volumes[1:], atlas.failure_volume)
     rows = []
     j, vol, k = 0, 1.0, 0
     layer_start, acc = 1.0, 0.0
@@ -346,10 +359,12 @@ def simulate_run_reference(
         after = layer_start - acc
         rows.append((s, m, th, float(r["temp_mean_c"]), float(r["stop_dist_m"]), float(dv), vol, j))
         vol, k = after, k + 1
-        if after < lowers[j]:
-            if j == len(lowers) - 1:
-                break
-            j, layer_start, acc = j + 1, after, 0.0
+        if after <= lowers[j]:
+            if after <= lowers[-1]:
+                break  # end of life
+            while after <= lowers[j]:  # the next layer whose band holds the volume
+                j += 1
+            layer_start, acc = after, 0.0
     out = _RunColumns(len(rows))
     sp, m, th, temp, dist, dv, v, lay = (np.array(c) for c in zip(*rows, strict=True))
     out.append(sp, m, th, temp, dist, dv, float(v[0]), v[1:], 0)

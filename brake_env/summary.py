@@ -23,6 +23,8 @@ def atlas_summary(atlas: Atlas) -> dict[str, Any]:
             "slope": int(atlas.slope_rad.size),
         },
         "critical_volume_frac": atlas.critical_volume,
+        "failure_volume_frac": atlas.failure_volume,
+        "failure_mode": atlas.failure_mode,
         "last_layer_volume_frac": float(atlas.volumes[-1]),
         # Mean over uniform operating conditions, last layer before failure vs fresh pad.
         "wear_per_event_ratio_end_fresh": float(wear[-1] / wear[0]),

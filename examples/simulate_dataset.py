@@ -30,7 +30,10 @@ def main(out_dir: str = "out/example", k_mean: float = 2e-6, runs: int = 2) -> d
         )
     write_dataset(ds, out_dir, formats=("parquet",))
     plot_volume_trajectories(ds.runs, Path(out_dir) / "volume.png")
-    print(f"failure below {atlas.critical_volume:.1%} volume; logs and volume.png in {out_dir}")
+    print(
+        f"end of life below {atlas.failure_volume:.1%} volume ({atlas.failure_mode});"
+        f" logs and volume.png in {out_dir}"
+    )
     return lives
 
 

@@ -55,7 +55,7 @@ def test_atlas_command_and_demo(tmp_path) -> None:
     assert info["mean_temp_strictly_rising_everywhere"] is True
     assert (tmp_path / "atlas" / "calibration.png").stat().st_size > 0
     assert main(["demo", "--out", str(tmp_path / "demo"), *SMALL]) == 0
-    assert "failure (most severe event cannot stop)" in (tmp_path / "demo/report.md").read_text()
+    assert "(cannot-stop: the" in (tmp_path / "demo/report.md").read_text()
 
 
 def test_bad_arguments_are_named(tmp_path, capsys) -> None:

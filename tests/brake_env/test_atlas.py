@@ -1,10 +1,7 @@
-import dataclasses
-
 import numpy as np
 import pytest
 
 from brake_env.atlas import FIELDS, Atlas, AtlasSpec, cached_atlas
-from brake_env.params import BrakeModel
 from brake_env.physics import simulate_events
 
 
@@ -98,12 +95,58 @@ def test_tampered_file_is_rejected(tmp_path, small_atlas) -> None:
         Atlas.load(tmp_path / "bad.npz")
 
 
+def _leaves(d: dict, prefix: tuple = ()):
+    for k, v in d.items():
+        if isinstance(v, dict):
+            yield from _leaves(v, (*prefix, k))
+        else:
+            yield (*prefix, k), v
+
+
+def _nudged(v):
+    if isinstance(v, bool):
+        return not v
+    if isinstance(v, int):
+        return v + 1
+    if isinstance(v, float):
+        return v * 1.01 + 1e-3
+    return (v[0], v[1] * 0.99)  # a (min, max) range
+
+
 def test_hash_depends_on_every_parameter() -> None:
     base = AtlasSpec()
-    hotter = dataclasses.replace(base.model.brake, start_temp_c=451.0)
     assert base.content_hash() == AtlasSpec().content_hash()
-    assert base.content_hash() != AtlasSpec(model=BrakeModel(brake=hotter)).content_hash()
-    assert base.content_hash() != AtlasSpec(n_speed=24).content_hash()
+    seen = set()
+    for path, value in _leaves(base.to_dict()):
+        d = base.to_dict()
+        node = d
+        for k in path[:-1]:
+            node = node[k]
+        node[path[-1]] = _nudged(value)
+        changed = AtlasSpec.from_dict(d).content_hash()
+        assert changed != base.content_hash(), path
+        seen.add(changed)
+    assert len(seen) == len(list(_leaves(base.to_dict())))  # every leaf, a different hash
+
+
+def test_edited_arrays_are_rejected(tmp_path, small_atlas) -> None:
+    path = small_atlas.save(tmp_path / "a.npz")
+    with np.load(path, allow_pickle=False) as z:
+        data = {k: z[k] for k in z.files}
+    data["field_wear_per_k_m3"] = data["field_wear_per_k_m3"] * 1.0001
+    np.savez(tmp_path / "edited.npz", **data)
+    with pytest.raises(ValueError, match="checksum"):
+        Atlas.load(tmp_path / "edited.npz")
+
+
+def test_corrupt_cache_entry_is_rebuilt(tmp_path) -> None:
+    spec = AtlasSpec(n_speed=4, n_mass=2, n_slope=3)
+    first = cached_atlas(spec, tmp_path)
+    (entry,) = tmp_path.glob("atlas-*.npz")
+    entry.write_bytes(entry.read_bytes()[:1000])  # truncated, e.g. by a full disk
+    again = cached_atlas(spec, tmp_path)
+    np.testing.assert_array_equal(again.fields["temp_mean_c"], first.fields["temp_mean_c"])
+    Atlas.load(entry)  # the entry was rewritten whole
 
 
 def test_cache_builds_once(tmp_path, monkeypatch) -> None:
@@ -129,6 +172,10 @@ def test_bad_queries_name_the_argument(small_atlas) -> None:
         a.query(3.0, 5e4, 0.1, layer=np.int64(a.n_layers))
     with pytest.raises(ValueError, match="volume_frac"):
         a.query(3.0, 5e4, 0.1, volume_frac=0.05)
+    with pytest.raises(ValueError, match="finite"):
+        a.query(np.nan, 5e4, 0.1, layer=np.int64(0))
+    with pytest.raises(ValueError, match="volume_frac"):
+        a.query(3.0, 5e4, 0.1, volume_frac=np.nan)
     with pytest.raises(ValueError, match="exactly one"):
         a.query(3.0, 5e4, 0.1)
     with pytest.raises(ValueError, match="unknown atlas field"):

@@ -66,3 +66,5 @@ def test_spec_validation() -> None:
         DatasetSpec(n_train=-1)
     with pytest.raises(ValueError, match="k_std"):
         DatasetSpec(k_std=0.0)
+    with pytest.raises(ValueError, match="no runs"):
+        DatasetSpec(n_train=0, n_id=0, n_ood_slow=0, n_ood_fast=0)

@@ -40,9 +40,13 @@ def test_hardness_values_quoted_in_design_and_floor() -> None:
     t = np.linspace(0, 1000, 10001)
     assert 300 < t[np.argmax(hardness_mpa(t))] < 330
     assert hardness_mpa(t).max() == pytest.approx(230, abs=2)
-    # The fit goes negative above ~1030 C; the floor keeps Archard's law finite.
+    # The fit goes negative above ~1030 C; the floor keeps Archard's law finite, smoothly.
     assert h_by_hand(1100.0) < 0
-    assert hardness_mpa(1100.0) == HardnessParams().floor_mpa
+    assert hardness_mpa(1100.0) == pytest.approx(HardnessParams().floor_mpa, rel=1e-6)
+    t = np.linspace(900, 1200, 3001)
+    h = hardness_mpa(t)
+    assert np.all(h >= 1.0) and np.all(np.diff(h) <= 0)  # falling to the floor, never below
+    assert np.all(np.abs(np.diff(h, 2)) < 0.05)  # no kink where the fit crosses the floor
 
 
 def test_invalid_parameters_are_rejected_by_name() -> None:

@@ -59,7 +59,7 @@ def test_interleaved_runs_are_fine() -> None:
         ),
         (
             lambda d: d.assign(event=[0, 2, 2, 0, 1, 2]),
-            r"column 'event', row 2, run 'a': event 2 does not increase",
+            r"column 'event', row 2, run 'a': 2 does not increase \(previous value.* is 2\)",
         ),
         (
             lambda d: d.assign(mass_kg=d["mass_kg"].where(d.index != 3, -5.0)),
@@ -75,6 +75,26 @@ def test_interleaved_runs_are_fine() -> None:
         ),
         (lambda d: d.assign(failed=["no", *[False] * 5]), r"column 'failed', row 0.*boolean"),
         (lambda d: d.assign(run_id=[None, *["a"] * 2, *["b"] * 3]), r"column 'run_id', row 0"),
+        (
+            lambda d: d.assign(energy_j=d["energy_j"].where(d.index != 2, np.inf)),
+            r"column 'energy_j', row 2.*value inf is outside",
+        ),
+        (
+            lambda d: d.assign(mass_kg=d["mass_kg"].where(d.index != 1, 0.0)),
+            r"column 'mass_kg', row 1.*range \(0, ",
+        ),
+        (
+            lambda d: d.assign(event=d["event"].astype(float).where(d.index != 4, 1e19)),
+            r"column 'event', row 4.*expected an integer, got 1e\+19",
+        ),
+        (
+            lambda d: d.assign(event=[True, False, True, False, True, False]),
+            r"column 'event': expected numbers, got a boolean column",
+        ),
+        (
+            lambda d: d.assign(time_s=[0.0, 5.0, 4.0, 0.0, 1.0, 2.0]),
+            r"column 'time_s', row 2, run 'a': 4 goes back in time",
+        ),
     ],
     ids=[
         "missing",
@@ -87,6 +107,11 @@ def test_interleaved_runs_are_fine() -> None:
         "volume",
         "bool",
         "no-run",
+        "infinite",
+        "zero-mass",
+        "int-overflow",
+        "bool-event",
+        "time-back",
     ],
 )
 def test_bad_input_gets_one_clear_error(mutate, expected) -> None:
@@ -111,3 +136,52 @@ def test_unsupported_or_missing_file(tmp_path) -> None:
         read_event_log(tmp_path / "log.xlsx")
     with pytest.raises(FileNotFoundError):
         read_event_log(tmp_path / "none.parquet")
+
+
+def _csv(tmp_path, text: str):
+    path = tmp_path / "log.csv"
+    path.write_text(text)
+    return path
+
+
+HEADER = "run_id,event,speed_kmh,mass_kg,slope_rad,energy_j,temp_c,stop_dist_m\n"
+
+
+@pytest.mark.parametrize(
+    ("body", "expected"),
+    [
+        ("a,0,5,48000,0.1,1e5,450,2\na,1,5,48000\n", r"CSV line 3 \(row 1\) has 4 fields"),
+        ("a,0,5,48000,0.1,1e5,450,2,9\n", r"CSV line 2 \(row 0\) has 9 fields"),
+        ('a,0,5,48000,0.1,1e5,"450,2\n', r"CSV line 2 \(row 0\) has 7 fields"),
+    ],
+    ids=["short-row", "long-row", "open-quote"],
+)
+def test_ragged_csv_rows_are_named_by_line(tmp_path, body, expected) -> None:
+    with pytest.raises(EventLogError, match=expected):
+        read_event_log(_csv(tmp_path, HEADER + body))
+
+
+def test_csv_header_problems(tmp_path) -> None:
+    with pytest.raises(EventLogError, match="no columns"):
+        read_event_log(_csv(tmp_path, ""))
+    dup = HEADER.replace("stop_dist_m", "temp_c")
+    with pytest.raises(EventLogError, match=r"duplicate column\(s\) \['temp_c'\]"):
+        read_event_log(_csv(tmp_path, dup + "a,0,5,48000,0.1,1e5,450,2\n"))
+
+
+def test_a_run_called_na_is_a_run(tmp_path) -> None:
+    df = read_event_log(_csv(tmp_path, HEADER + "NA,0,5,48000,0.1,1e5,450,2\n"))
+    assert df["run_id"].tolist() == ["NA"]
+
+
+def test_parquet_problems(tmp_path) -> None:
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    (tmp_path / "junk.parquet").write_bytes(b"not parquet at all")
+    with pytest.raises(EventLogError, match="not a readable Parquet file"):
+        read_event_log(tmp_path / "junk.parquet")
+    t = pa.Table.from_arrays([pa.array([1.0]), pa.array([2.0])], names=["temp_c", "temp_c"])
+    pq.write_table(t, tmp_path / "dup.parquet")
+    with pytest.raises(EventLogError, match="duplicate column"):
+        read_event_log(tmp_path / "dup.parquet")

@@ -62,10 +62,11 @@ def test_volume_layers_and_failure_are_consistent(small_atlas) -> None:
     assert np.all(np.diff(v) < 0) and np.all(t.wear_frac > 0)
     np.testing.assert_allclose(v[1:], v[:-1] - t.wear_frac[:-1], rtol=0, atol=1e-12)
     # Every event ran on the layer whose 1% band holds the volume at its start.
-    lower = np.append(a.volumes[1:], a.critical_volume)[t.layer]
+    lower = np.append(a.volumes[1:], a.failure_volume)[t.layer]
     assert np.all(v <= a.volumes[t.layer] + 1e-12) and np.all(v >= lower)
     # The run ends with the event that takes the pad below the critical volume.
-    assert t.final_volume_frac < a.critical_volume <= v[-1]
+    assert t.final_volume_frac < a.failure_volume <= v[-1]
+    assert a.failure_mode == "cannot-stop" and a.failure_volume == a.critical_volume
     np.testing.assert_array_equal(t.rul_events, t.n_events - 1 - np.arange(t.n_events))
 
 
@@ -98,6 +99,19 @@ def test_bad_wear_coefficients_are_rejected(small_atlas) -> None:
         simulate_runs(small_atlas, [-1e-6], seeds(1))
     with pytest.raises(ValueError, match="one seed per"):
         simulate_runs(small_atlas, [1e-6, 2e-6], seeds(1))
+    with pytest.raises(ValueError, match="half an atlas layer"):
+        simulate_runs(small_atlas, [1e-2], seeds(1))
+
+
+def test_an_event_that_skips_a_layer_is_handled_alike(small_atlas) -> None:
+    # K near the limit: single events can cross more than one 1% level near end of life.
+    ss = seeds(1, seed=1)
+    (fast,) = simulate_runs(small_atlas, [6e-4], ss)
+    ref = simulate_run_reference(small_atlas, 6e-4, ss[0])
+    assert np.diff(fast.layer).max() == 2  # this seed does skip a layer
+    assert fast.n_events == ref.n_events
+    np.testing.assert_array_equal(fast.layer, ref.layer)
+    assert fast.final_volume_frac == ref.final_volume_frac < small_atlas.failure_volume
 
 
 def test_trajectory_array_names_match_the_dataclass() -> None:
