@@ -30,7 +30,7 @@ F64 = NDArray[np.float64]
 FORMAT_VERSION = 2
 # Bump whenever brake_env.physics or brake_env.materials change what they compute: the
 # version is hashed with the parameters, so cached atlases of older physics are not reused.
-PHYSICS_VERSION = 2
+PHYSICS_VERSION = 3
 _LAYERS_PER_CHUNK = 8
 FIELDS = (
     "temp_mean_c",
