@@ -1,7 +1,8 @@
 """The calibration study behind the default brake (docs/calibration.md).
 
-For each lever setting, prints the failure volume (bisection on the physics), the mean wear
-per event at the last 1% layer before failure over that of a fresh pad, estimated by Monte
+For each lever setting, prints the failure volume (bisection on the physics; 0 if the severe
+event always stops), the mean wear per event at the last 1% layer before end of life (failure
+or the 5% wear-out limit) over that of a fresh pad, estimated by Monte
 Carlo on the physics itself (no atlas interpolation), and the expected life at K = 2e-6.
 
 Run: ``.venv/bin/python docs/calibration_scan.py`` (about a minute on 2 cores).
@@ -24,7 +25,8 @@ N_MC = 100_000
 
 def study(model: BrakeModel, s, m, th) -> tuple[float, float, float, float]:
     vc = critical_volume(model)
-    last = max(1.0 - 0.01 * math.floor((1.0 - vc) / 0.01 + 1e-9), 0.01)
+    end = max(vc, model.brake.min_volume_frac)  # failure, or the wear-out limit
+    last = 1.0 - 0.01 * math.floor((1.0 - end) / 0.01 + 1e-9)
     w1 = simulate_events(s, m, th, last, model).wear_per_k_m3
     w0 = simulate_events(s, m, th, 1.0, model).wear_per_k_m3
     ratio = w1.mean() / w0.mean()

@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 
 from brake_env.datasets import DatasetSpec, make_dataset, write_dataset
-from brake_env.schema import read_event_log
+from brake_env.schema import GROUND_TRUTH, REQUIRED, read_event_log
 from brake_env.simulator import SensorNoise
 
 SMALL = DatasetSpec(n_train=2, n_id=2, n_ood_slow=1, n_ood_fast=1, k_mean=4e-5, k_std=4e-6)
@@ -28,6 +28,7 @@ def test_logs_hold_truth_and_noise_of_the_paper(small_atlas) -> None:
         small_atlas, DatasetSpec(**{**SMALL.__dict__, "noise": SensorNoise.none()}), seed=1
     )
     log, clean = ds.logs["train"], noiseless.logs["train"]
+    assert [c.name for c in REQUIRED] + list(GROUND_TRUTH) == list(log.columns)
     assert len(log) == sum(t.n_events for s, _, t in ds.runs if s == "train")
     resid = log["temp_c"] - clean["temp_c"]
     assert resid.std() == pytest.approx(5.0, rel=0.05)

@@ -2,7 +2,13 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from brake_env.schema import EventLogError, read_event_log, validate_event_log, write_event_log
+from brake_env.schema import (
+    SENSOR_CHANNELS,
+    EventLogError,
+    read_event_log,
+    validate_event_log,
+    write_event_log,
+)
 
 
 def good_log(n: int = 6) -> pd.DataFrame:
@@ -30,10 +36,22 @@ def test_good_log_passes_and_keeps_unknown_columns() -> None:
     assert out["event"].dtype == np.int64
 
 
-def test_nan_in_a_sensor_channel_is_a_dropout_not_an_error() -> None:
+@pytest.mark.parametrize("channel", SENSOR_CHANNELS)
+def test_nan_in_a_sensor_channel_is_a_dropout_not_an_error(channel) -> None:
     df = good_log()
-    df.loc[2, "temp_c"] = np.nan
-    assert np.isnan(validate_event_log(df)["temp_c"].iloc[2])
+    df.loc[2, channel] = np.nan
+    assert np.isnan(validate_event_log(df)[channel].iloc[2])
+
+
+def test_sensor_channels_are_the_measured_ones() -> None:
+    assert set(SENSOR_CHANNELS) == {
+        "speed_kmh",
+        "mass_kg",
+        "slope_rad",
+        "energy_j",
+        "temp_c",
+        "stop_dist_m",
+    }
 
 
 def test_interleaved_runs_are_fine() -> None:
