@@ -18,7 +18,7 @@ import pandas as pd
 
 from brake_env._validate import check_positive
 from brake_env.atlas import Atlas
-from brake_env.schema import write_event_log
+from brake_env.schema import SENSOR_CHANNELS, write_event_log
 from brake_env.simulator import SensorNoise, Trajectory, simulate_runs
 
 SPLITS = ("train", "id", "ood")
@@ -107,16 +107,7 @@ def event_logs(
     sizes = np.array([t.n_events for _, t in runs], dtype=np.int64)
     ends = np.cumsum(sizes)
     total = int(ends[-1]) if sizes.size else 0
-    names = (
-        "speed_kmh",
-        "mass_kg",
-        "slope_rad",
-        "energy_j",
-        "temp_c",
-        "stop_dist_m",
-        "volume_frac",
-        "wear_coeff",
-    )
+    names = (*SENSOR_CHANNELS, "volume_frac", "wear_coeff")  # the float columns
     cols = {k: np.empty(total) for k in names}
     event, rul = np.empty(total, dtype=np.int64), np.empty(total, dtype=np.int64)
     failed = np.zeros(total, dtype=bool)
@@ -146,7 +137,7 @@ def event_logs(
         np.repeat(np.arange(len(runs), dtype=np.int32), sizes), pd.Index([rid for rid, _ in runs])
     )
     data = {"run_id": run_id, "event": event}
-    data.update((k, cols[k]) for k in names[:6])
+    data.update((k, cols[k]) for k in SENSOR_CHANNELS)
     data.update(
         volume_frac=cols["volume_frac"],
         wear_coeff=cols["wear_coeff"],
