@@ -247,7 +247,7 @@ class _RunColumns:
         dv: F64,
         v_first: float,
         v_rest: F64,
-        layer: int,
+        layer: int | NDArray[np.integer],
     ) -> None:
         c, n = sp.size, self.n
         if n + c > self.layer.size:
@@ -367,6 +367,5 @@ def simulate_run_reference(
             layer_start, acc = after, 0.0
     out = _RunColumns(len(rows))
     sp, m, th, temp, dist, dv, v, lay = (np.array(c) for c in zip(*rows, strict=True))
-    out.append(sp, m, th, temp, dist, dv, float(v[0]), v[1:], 0)
-    out.layer[:] = lay
+    out.append(sp, m, th, temp, dist, dv, float(v[0]), v[1:], lay)
     return out.trajectory(float(wear_coeff), float(vol))
