@@ -126,7 +126,7 @@ class Atlas:
         mass = np.linspace(*env.mass_kg, spec.n_mass)
         slope = np.radians(np.linspace(*env.slope_deg, spec.n_slope))
         v_crit = critical_volume(spec.model)
-        v_end = max(v_crit, spec.model.brake.min_volume_frac)  # see failure_volume
+        v_end = _end_of_life(v_crit, spec.model)
         n_layers = int(np.floor((1.0 - v_end) / spec.layer_step + 1e-9)) + 1
         volumes = (1.0 - spec.layer_step * np.arange(n_layers)).astype(np.float64)
         volumes = volumes[volumes > v_end]
@@ -157,7 +157,12 @@ class Atlas:
     @property
     def failure_volume(self) -> float:
         """End of pad life: the critical volume, or the wear-out limit if that is higher."""
-        return max(self.critical_volume, self.spec.model.brake.min_volume_frac)
+        return _end_of_life(self.critical_volume, self.spec.model)
+
+    @property
+    def lower_edges(self) -> F64:
+        """Volume at which each layer hands over to the next; the last one's is end of life."""
+        return np.append(self.volumes[1:], self.failure_volume)
 
     @property
     def failure_mode(self) -> str:
@@ -374,6 +379,11 @@ class Atlas:
         c0, c1 = gm * c[0] + fm * c[1], gm * c[2] + fm * c[3]  # along mass
         out = (1.0 - fs) * c0 + fs * c1  # along speed
         return {n: out[..., i] for i, n in enumerate(names)}
+
+
+def _end_of_life(critical_volume: float, model: BrakeModel) -> float:
+    """The pad's life ends when it cannot stop the severe event, or at the wear-out limit."""
+    return max(critical_volume, model.brake.min_volume_frac)
 
 
 def _digest(arrays: dict[str, np.ndarray]) -> str:

@@ -135,7 +135,7 @@ def conditions_from_uniform(atlas: Atlas, u: F64) -> tuple[F64, F64, F64]:
 def expected_life(atlas: Atlas, wear_coeff: float | F64) -> F64:
     """Expected events to failure for coefficient(s) K, from the atlas's mean wear per layer."""
     k = np.asarray(wear_coeff, dtype=np.float64)[..., None]
-    span = np.append(-np.diff(atlas.volumes), atlas.volumes[-1] - atlas.failure_volume)
+    span = atlas.volumes - atlas.lower_edges
     per_event = k * atlas.expected("wear_per_k_m3") / atlas.spec.model.brake.pad_volume_m3
     return (span / per_event).sum(axis=-1)
 
@@ -176,7 +176,7 @@ def simulate_runs(
     outs = [_RunColumns(int(c)) for c in capacity]
     pos = np.zeros(n_runs, dtype=np.int64)
     vol = np.ones(n_runs)
-    lowers = np.append(atlas.volumes[1:], atlas.failure_volume)
+    lowers = atlas.lower_edges
 
     for j, lower in enumerate(lowers):
         alive = np.flatnonzero(vol > lower)  # runs not yet down to this layer's lower edge
@@ -342,7 +342,7 @@ def simulate_run_reference(
     stream = _Stream(
         np.random.default_rng(seed), int(1.1 * expected_life(atlas, wear_coeff)) + 1000
     )
-    lowers = np.append(atlas.volumes[1:], atlas.failure_volume)
+    lowers = atlas.lower_edges
     rows = []
     j, vol, k = 0, 1.0, 0
     layer_start, acc = 1.0, 0.0

@@ -62,7 +62,7 @@ def test_volume_layers_and_failure_are_consistent(small_atlas) -> None:
     assert np.all(np.diff(v) < 0) and np.all(t.wear_frac > 0)
     np.testing.assert_allclose(v[1:], v[:-1] - t.wear_frac[:-1], rtol=0, atol=1e-12)
     # Every event ran on the layer whose 1% band holds the volume at its start.
-    lower = np.append(a.volumes[1:], a.failure_volume)[t.layer]
+    lower = a.lower_edges[t.layer]
     assert np.all(v <= a.volumes[t.layer] + 1e-12) and np.all(v >= lower)
     # The run ends with the event that takes the pad below the critical volume.
     assert t.final_volume_frac < a.failure_volume <= v[-1]
