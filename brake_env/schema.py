@@ -213,7 +213,10 @@ def _read_parquet(path: Path) -> pd.DataFrame:
     except (pa.ArrowException, OSError) as e:
         raise EventLogError(f"{path}: not a readable Parquet file ({e})") from None
     _check_header(path, names)
-    return pq.read_table(path).to_pandas()
+    try:
+        return pq.read_table(path).to_pandas()
+    except (pa.ArrowException, OSError) as e:  # a readable footer over damaged data pages
+        raise EventLogError(f"{path}: damaged Parquet data ({e})") from None
 
 
 def _read_csv(path: Path) -> pd.DataFrame:

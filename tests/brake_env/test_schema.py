@@ -196,6 +196,13 @@ def test_parquet_problems(tmp_path) -> None:
     import pyarrow as pa
     import pyarrow.parquet as pq
 
+    good = tmp_path / "good.parquet"
+    write_event_log(good_log(), good)
+    raw = bytearray(good.read_bytes())
+    raw[4:200] = b"\xff" * 196  # garble the first data pages, keep the footer and schema
+    (tmp_path / "damaged.parquet").write_bytes(bytes(raw))
+    with pytest.raises(EventLogError, match="damaged Parquet data"):
+        read_event_log(tmp_path / "damaged.parquet")
     (tmp_path / "junk.parquet").write_bytes(b"not parquet at all")
     with pytest.raises(EventLogError, match="not a readable Parquet file"):
         read_event_log(tmp_path / "junk.parquet")
