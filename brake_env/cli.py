@@ -6,7 +6,9 @@ import argparse
 import json
 import sys
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from importlib.metadata import entry_points
 from pathlib import Path
 from typing import Any
 
@@ -35,13 +37,13 @@ def _nonneg_int(text: str) -> int:
     return n
 
 
-def _write_json(obj: Any, path: Path) -> Path:
+def write_json(obj: Any, path: Path) -> Path:
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(json.dumps(obj, indent=2, sort_keys=False) + "\n")
     return path
 
 
-def _load_atlas(args: argparse.Namespace, preset: str | None = None) -> Atlas:
+def load_atlas(args: argparse.Namespace, preset: str | None = None) -> Atlas:
     """The atlas file given by --atlas (its own parameters), else the preset's cached atlas."""
     if getattr(args, "atlas", None) and preset is None:
         return Atlas.load(args.atlas)
@@ -50,7 +52,7 @@ def _load_atlas(args: argparse.Namespace, preset: str | None = None) -> Atlas:
         return cached_atlas(spec, args.cache_dir, getattr(args, "rebuild", False), bar.update)
 
 
-def _table(rows: list[list[str]]) -> str:
+def table(rows: list[list[str]]) -> str:
     widths = [max(len(r[i]) for r in rows) for i in range(len(rows[0]))]
     lines = ["  ".join(c.rjust(w) for c, w in zip(r, widths, strict=True)) for r in rows]
     lines.insert(1, "  ".join("-" * w for w in widths))
@@ -62,17 +64,17 @@ def cmd_atlas(args: argparse.Namespace) -> dict[str, Any]:
     from brake_env.plots import plot_calibration
 
     out = Path(args.out)
-    atlas = _load_atlas(args)
+    atlas = load_atlas(args)
     atlas.save(out / "atlas.npz")
     info = atlas_summary(atlas)
     info["build_seconds"] = atlas.build_seconds
     info["preset"] = args.preset
-    _write_json(info, out / "atlas.json")
+    write_json(info, out / "atlas.json")
     other = "cold-start" if args.preset == "hot-duty" else "hot-duty"
     # The calibration figure sets the other preset beside this one (DESIGN 3's contrast).
-    plot_calibration(atlas, out / "calibration.png", compare={other: _load_atlas(args, other)})
+    plot_calibration(atlas, out / "calibration.png", compare={other: load_atlas(args, other)})
     print(
-        _table(
+        table(
             [
                 [
                     "preset",
@@ -104,7 +106,7 @@ def cmd_simulate(args: argparse.Namespace) -> dict[str, Any]:
     from brake_env.plots import plot_trace, plot_volume_trajectories
 
     out = Path(args.out)
-    atlas = _load_atlas(args)
+    atlas = load_atlas(args)
     spec = DatasetSpec(
         n_train=args.n_train,
         n_id=args.n_id,
@@ -123,7 +125,7 @@ def cmd_simulate(args: argparse.Namespace) -> dict[str, Any]:
     summary = dataset_summary(ds, atlas, args.seed)
     summary["timing_s"]["write"] = time.perf_counter() - t0
     summary["files"] = sorted(f"{s}.{f}" for s in SPLITS for f in args.format)
-    _write_json(summary, out / "summary.json")
+    write_json(summary, out / "summary.json")
     if ds.runs:
         plot_volume_trajectories(ds.runs, out / "figures" / "volume_trajectories.png")
         split, run_id, _ = next((r for r in ds.runs if r[1].startswith("ood-fast")), ds.runs[0])
@@ -140,7 +142,7 @@ def cmd_simulate(args: argparse.Namespace) -> dict[str, Any]:
                 f"{life['max']:.0f}",
             ]
         )
-    print(_table(rows))
+    print(table(rows))
     print(
         f"events: {summary['events_total']}  simulate: {ds.simulate_seconds:.2f} s"
         f"  ({summary['events_total'] / max(ds.simulate_seconds, 1e-9):.3g} events/s)"
@@ -152,16 +154,54 @@ def cmd_simulate(args: argparse.Namespace) -> dict[str, Any]:
 
 
 # ---------------------------------------------------------------------- demo
+@dataclass
+class DemoContext:
+    """What a demo stage gets: the demo's options and the files made before it.
+
+    Attributes:
+        args: The parsed ``brakewear demo`` options (seed, preset, cache_dir, quiet, ...).
+        out: The demo's output directory; a stage writes under ``out / <its name>``.
+        atlas_file: The atlas of the demo, as saved by the atlas stage.
+        data_dir: The run-to-failure datasets ({train,id,ood}.parquet).
+        results: Stage name -> what the stage returned, for later stages.
+    """
+
+    args: argparse.Namespace
+    out: Path
+    atlas_file: Path
+    data_dir: Path
+    results: dict[str, Any] = field(default_factory=dict)
+
+
+# A demo stage returns (result for later stages, Markdown section for report.md).
+DemoStage = Callable[[DemoContext], tuple[Any, str]]
+
+
+def _entry_points(group: str) -> list[Any]:
+    """Installed plug-ins of ``group``, ordered by name (demo stages are named "NN-what")."""
+    return sorted(entry_points(group=group), key=lambda ep: ep.name)
+
+
 def cmd_demo(args: argparse.Namespace) -> dict[str, Any]:
     out = Path(args.out)
     t0 = time.perf_counter()
-    print("== 1/2 atlas and calibration")
+    stages = _entry_points("brakewear.demo")
+    n = 2 + len(stages)
+    print(f"== 1/{n} atlas and calibration")
     atlas_info = cmd_atlas(argparse.Namespace(**{**vars(args), "out": str(out / "atlas")}))
-    print("\n== 2/2 run-to-failure datasets")
+    print(f"\n== 2/{n} run-to-failure datasets")
     data_args = {**vars(args), "out": str(out / "data"), "atlas": None}
     summary = cmd_simulate(argparse.Namespace(**data_args))
+    ctx = DemoContext(args, out, out / "atlas" / "atlas.npz", out / "data")
+    sections = []
+    for i, ep in enumerate(stages, start=3):
+        name = ep.name.split("-", 1)[-1]
+        print(f"\n== {i}/{n} {name}")
+        stage: DemoStage = ep.load()
+        ctx.results[name], section = stage(ctx)
+        sections.append(section)
     report = _demo_report(atlas_info, summary, out, time.perf_counter() - t0)
-    (out / "report.md").write_text(report)
+    (out / "report.md").write_text(report + "".join("\n" + s for s in sections))
     print(f"\nreport: {out / 'report.md'}")
     return summary
 
@@ -202,27 +242,29 @@ Seed {s["seed"]}; total {seconds:.1f} s. Atlas `{atlas["hash"][:16]}`.
 """
 
 
+def add_common_args(sp: argparse.ArgumentParser, out_default: str) -> None:
+    """The options every subcommand takes (plug-in commands use them too)."""
+    sp.add_argument("--out", default=out_default, help="output directory")
+    sp.add_argument("--seed", type=int, default=0, help="random seed (same seed, same files)")
+    sp.add_argument(
+        "--preset",
+        default="hot-duty",
+        choices=["hot-duty", "cold-start"],
+        help="brake calibration (docs/calibration.md)",
+    )
+    sp.add_argument(
+        "--cache-dir",
+        default=None,
+        help="atlas cache (default $BRAKEWEAR_CACHE_DIR or ~/.cache/brakewear)",
+    )
+    sp.add_argument("--quiet", action="store_true", help="no progress bars")
+
+
 # ---------------------------------------------------------------------- parser
 def build_parser() -> argparse.ArgumentParser:
     fmt = argparse.ArgumentDefaultsHelpFormatter
     p = argparse.ArgumentParser(prog="brakewear", description=__doc__, formatter_class=fmt)
     sub = p.add_subparsers(dest="command", required=True)
-
-    def common(sp: argparse.ArgumentParser, out_default: str) -> None:
-        sp.add_argument("--out", default=out_default, help="output directory")
-        sp.add_argument("--seed", type=int, default=0, help="random seed (same seed, same files)")
-        sp.add_argument(
-            "--preset",
-            default="hot-duty",
-            choices=["hot-duty", "cold-start"],
-            help="brake calibration (docs/calibration.md)",
-        )
-        sp.add_argument(
-            "--cache-dir",
-            default=None,
-            help="atlas cache (default $BRAKEWEAR_CACHE_DIR or ~/.cache/brakewear)",
-        )
-        sp.add_argument("--quiet", action="store_true", help="no progress bars")
 
     def sim_args(sp: argparse.ArgumentParser, fmt_default: str) -> None:
         sp.add_argument(
@@ -246,7 +288,7 @@ def build_parser() -> argparse.ArgumentParser:
         formatter_class=fmt,
         help="build (or load from cache) the atlas; calibration figure beside the other preset",
     )
-    common(a, "out/atlas")
+    add_common_args(a, "out/atlas")
     a.add_argument("--rebuild", action="store_true", help="ignore the cache")
     a.set_defaults(func=cmd_atlas)
 
@@ -255,7 +297,7 @@ def build_parser() -> argparse.ArgumentParser:
         formatter_class=fmt,
         help="simulate the train / ID / OOD run-to-failure datasets",
     )
-    common(s, "out/data")
+    add_common_args(s, "out/data")
     s.add_argument("--atlas", default=None, help="atlas .npz to use instead of the cache")
     sim_args(s, "parquet,csv")
     s.set_defaults(func=cmd_simulate)
@@ -263,10 +305,15 @@ def build_parser() -> argparse.ArgumentParser:
     d = sub.add_parser(
         "demo", formatter_class=fmt, help="the main job on small defaults: atlas, datasets, report"
     )
-    common(d, "out/demo")
+    add_common_args(d, "out/demo")
     d.add_argument("--rebuild", action="store_true", help="ignore the atlas cache")
     sim_args(d, "parquet")
     d.set_defaults(func=cmd_demo)
+
+    # Commands of the downstream packages (twin, baselines, agents, sim2real) register
+    # themselves as plug-ins, so brake_env never imports them (DESIGN 2: imports flow one way).
+    for ep in _entry_points("brakewear.commands"):
+        ep.load()(sub)
     return p
 
 

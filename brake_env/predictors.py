@@ -1,0 +1,265 @@
+"""The predictor protocol (DESIGN 5) and the two predictors that need no model.
+
+Every RUL predictor is fitted on training runs, reset when a pad is installed, and updated
+with a batch of braking events of that pad. ``update`` returns one estimate *per event of
+the batch* (the estimate after that event), so a predictor can be run event by event inside
+the environment (batches of ``decision_interval`` events) or over a whole logged run at once
+(one batch), with the same code and the same numbers.
+
+Events travel as an :class:`EventBatch`: numpy arrays named like the event-log columns
+(DESIGN 4), so a predictor written against logs runs unchanged online. Ground-truth columns
+are present in simulated data and used only by :class:`Oracle`.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from collections.abc import Iterator, Mapping
+from dataclasses import dataclass, fields
+from typing import Any, ClassVar, Protocol, Self, runtime_checkable
+
+import numpy as np
+import pandas as pd
+from numpy.typing import NDArray
+
+F64 = NDArray[np.float64]
+
+# Measured channels of an event, in the order the environment observes them.
+MEASURED = ("speed_kmh", "mass_kg", "slope_rad", "energy_j", "temp_c", "stop_dist_m")
+TRUTH = ("volume_frac", "wear_coeff", "rul_events")
+
+
+@dataclass(frozen=True, eq=False)
+class EventBatch:
+    """Consecutive braking events of one pad, oldest first.
+
+    Attributes:
+        event: Index of each event since the pad was installed, 0-based [-].
+        speed_kmh, mass_kg, slope_rad, energy_j, temp_c, stop_dist_m: Measured channels,
+            in the units of the event-log schema.
+        volume_frac, wear_coeff, rul_events: Ground truth (simulated data only), else None.
+    """
+
+    event: NDArray[np.int64]
+    speed_kmh: F64
+    mass_kg: F64
+    slope_rad: F64
+    energy_j: F64
+    temp_c: F64
+    stop_dist_m: F64
+    volume_frac: F64 | None = None
+    wear_coeff: F64 | None = None
+    rul_events: NDArray[np.int64] | None = None
+
+    def __post_init__(self) -> None:
+        n = len(self.event)
+        for f in fields(self):
+            x = getattr(self, f.name)
+            if x is not None and len(x) != n:
+                raise ValueError(f"EventBatch.{f.name} has {len(x)} values, event has {n}")
+
+    def __len__(self) -> int:
+        return len(self.event)
+
+    @property
+    def has_truth(self) -> bool:
+        return self.rul_events is not None
+
+    def __getitem__(self, sl: slice) -> EventBatch:
+        parts: dict[str, Any] = {f.name: getattr(self, f.name) for f in fields(self)}
+        return EventBatch(**{k: None if v is None else v[sl] for k, v in parts.items()})
+
+    @classmethod
+    def from_arrays(cls, arrays: Mapping[str, np.ndarray]) -> EventBatch:
+        """From a mapping of column name to array (the env's ``info["events"]``)."""
+        missing = [k for k in ("event", *MEASURED) if k not in arrays]
+        if missing:
+            raise KeyError(f"EventBatch: missing array(s) {missing}")
+        kw: dict[str, Any] = {k: np.asarray(arrays[k], dtype=np.float64) for k in MEASURED}
+        kw.update((k, np.asarray(arrays[k])) for k in TRUTH if arrays.get(k) is not None)
+        return cls(event=np.asarray(arrays["event"], dtype=np.int64), **kw)
+
+    @classmethod
+    def from_frame(cls, df: pd.DataFrame) -> EventBatch:
+        """From the rows of one run of a validated event log (:func:`read_event_log`)."""
+        if "run_id" in df and df["run_id"].nunique() > 1:
+            raise ValueError("EventBatch.from_frame takes one run; split the log by run_id")
+        cols = {k: df[k].to_numpy() for k in ("event", *MEASURED, *TRUTH) if k in df}
+        return cls.from_arrays(cols)
+
+
+def iter_runs(log: pd.DataFrame) -> Iterator[tuple[str, EventBatch]]:
+    """(run_id, events) of every run of an event log, in order of first appearance."""
+    codes, names = pd.factorize(log["run_id"], sort=False)
+    order = np.argsort(codes, kind="stable")
+    bounds = np.searchsorted(codes[order], np.arange(len(names) + 1))
+    for i, name in enumerate(names):
+        rows = order[bounds[i] : bounds[i + 1]]
+        yield str(name), EventBatch.from_frame(log.iloc[rows].drop(columns="run_id"))
+
+
+@dataclass(frozen=True, eq=False)
+class RULEstimate:
+    """A predictor's estimate after each event of a batch.
+
+    Attributes:
+        rul_mean: Expected remaining useful life, in braking events, after each event.
+        rul_lower, rul_upper: Bounds of a predictive interval (see the predictor for its
+            level), or None.
+        volume_frac: Estimated pad volume fraction after each event, or None.
+        wear_coeff: Estimated Archard coefficient K after each event, or None.
+    """
+
+    rul_mean: F64
+    rul_lower: F64 | None = None
+    rul_upper: F64 | None = None
+    volume_frac: F64 | None = None
+    wear_coeff: F64 | None = None
+
+    def __len__(self) -> int:
+        return len(self.rul_mean)
+
+    @property
+    def latest(self) -> float:
+        """The estimate after the batch's last event."""
+        return float(self.rul_mean[-1])
+
+    def to_frame(self) -> pd.DataFrame:
+        return pd.DataFrame(
+            {
+                f.name: getattr(self, f.name)
+                for f in fields(self)
+                if getattr(self, f.name) is not None
+            }
+        )
+
+
+@runtime_checkable
+class RULPredictor(Protocol):
+    """Anything that estimates RUL from braking events (DESIGN 5)."""
+
+    name: str
+
+    def fit(self, train_log: pd.DataFrame) -> Self: ...
+
+    def reset(self) -> None: ...
+
+    def update(self, events: EventBatch) -> RULEstimate: ...
+
+
+class Predictor(ABC):
+    """Base class implementing the protocol's bookkeeping; subclasses fill the hooks.
+
+    ``update`` checks that the batch continues the current pad (event indices follow on
+    from the previous batch) and that the estimate has one value per event, then calls
+    ``_update``. ``fit`` takes a validated event log of run-to-failure training runs.
+
+    Attributes:
+        name: Short name used in tables and on the command line.
+        interval_level: Nominal coverage of ``rul_lower``/``rul_upper``, or None when the
+            predictor gives no interval.
+    """
+
+    name: ClassVar[str] = "predictor"
+    interval_level: ClassVar[float | None] = None
+
+    def __init__(self) -> None:
+        self._next_event = 0
+
+    def fit(self, train_log: pd.DataFrame) -> Self:
+        """Fit on training runs (an event log). Predictors without parameters do nothing."""
+        self._fit(train_log)
+        return self
+
+    def reset(self) -> None:
+        """A new pad is installed."""
+        self._next_event = 0
+        self._reset()
+
+    def update(self, events: EventBatch) -> RULEstimate:
+        """Take the next events of the installed pad; estimates after each of them."""
+        if len(events) == 0:
+            raise ValueError(f"{self.name}: update() needs at least one event")
+        if int(events.event[0]) != self._next_event:
+            raise ValueError(
+                f"{self.name}: batch starts at event {int(events.event[0])}, expected"
+                f" {self._next_event} (call reset() when a pad is installed)"
+            )
+        est = self._update(events)
+        if len(est) != len(events):
+            raise RuntimeError(f"{self.name}: {len(est)} estimates for {len(events)} events")
+        self._next_event = int(events.event[-1]) + 1
+        return est
+
+    def _fit(self, train_log: pd.DataFrame) -> None:  # noqa: B027 - optional hook
+        pass
+
+    def _reset(self) -> None:  # noqa: B027 - optional hook
+        pass
+
+    @abstractmethod
+    def _update(self, events: EventBatch) -> RULEstimate: ...
+
+
+class Oracle(Predictor):
+    """The true RUL, read from the ground truth of the events: the comparison's bound."""
+
+    name = "oracle"
+
+    def _update(self, events: EventBatch) -> RULEstimate:
+        if events.rul_events is None:
+            raise ValueError("oracle: the events carry no ground truth (rul_events)")
+        return RULEstimate(
+            rul_mean=events.rul_events.astype(np.float64),
+            volume_frac=None if events.volume_frac is None else events.volume_frac.copy(),
+            wear_coeff=None if events.wear_coeff is None else events.wear_coeff.copy(),
+        )
+
+
+class NoPrognostics(Predictor):
+    """No condition information: always the mean life of a new pad from the training runs.
+
+    With it, an agent knows only what the environment's event counter tells it, so it is
+    the baseline every real predictor has to beat.
+
+    Args:
+        mean_life_events: The constant estimate; set by ``fit`` when not given.
+    """
+
+    name = "none"
+
+    def __init__(self, mean_life_events: float | None = None) -> None:
+        super().__init__()
+        self.mean_life_events = mean_life_events
+
+    def _fit(self, train_log: pd.DataFrame) -> None:
+        self.mean_life_events = float(train_log.groupby("run_id", observed=True).size().mean())
+
+    def _update(self, events: EventBatch) -> RULEstimate:
+        if self.mean_life_events is None:
+            raise RuntimeError("none: call fit() or give mean_life_events")
+        return RULEstimate(rul_mean=np.full(len(events), self.mean_life_events))
+
+
+def predict_log(predictor: RULPredictor, log: pd.DataFrame, batch_events: int = 0) -> pd.DataFrame:
+    """Run ``predictor`` over every run of an event log, resetting it at each run.
+
+    Args:
+        predictor: A fitted predictor.
+        log: A validated event log; each run starts at a fresh pad (event 0).
+        batch_events: Events per ``update`` call; 0 gives each run as one batch.
+
+    Returns:
+        One row per event, run by run in order of first appearance: ``run_id``, ``event``
+        and the estimate's columns (``rul_mean`` and whichever optional ones it gives).
+    """
+    parts = []
+    for run_id, events in iter_runs(log):
+        predictor.reset()
+        step = batch_events or len(events)
+        ests = [predictor.update(events[i : i + step]) for i in range(0, len(events), step)]
+        frame = pd.concat([e.to_frame() for e in ests], ignore_index=True)
+        frame.insert(0, "event", events.event)
+        frame.insert(0, "run_id", run_id)
+        parts.append(frame)
+    return pd.concat(parts, ignore_index=True)
