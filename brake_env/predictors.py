@@ -67,7 +67,8 @@ class EventBatch:
 
     def __getitem__(self, sl: slice) -> EventBatch:
         parts: dict[str, Any] = {f.name: getattr(self, f.name) for f in fields(self)}
-        return EventBatch(**{k: None if v is None else v[sl] for k, v in parts.items()})
+        sliced: dict[str, Any] = {k: None if v is None else v[sl] for k, v in parts.items()}
+        return EventBatch(**sliced)
 
     @classmethod
     def from_arrays(cls, arrays: Mapping[str, np.ndarray]) -> EventBatch:
