@@ -19,7 +19,7 @@ import pandas as pd
 from brake_env._validate import check_positive
 from brake_env.atlas import Atlas
 from brake_env.schema import SENSOR_CHANNELS, write_event_log
-from brake_env.simulator import SensorNoise, Trajectory, simulate_runs
+from brake_env.simulator import F64, SensorNoise, Trajectory, simulate_runs
 
 SPLITS = ("train", "id", "ood")
 
@@ -96,6 +96,36 @@ class Dataset:
     interpolate_layers: bool = False
 
 
+def measure(
+    t: Trajectory,
+    noise: SensorNoise,
+    rng: np.random.Generator,
+    out: dict[str, F64] | None = None,
+) -> dict[str, F64]:
+    """What the sensors log for each event of ``t``: the true values plus Gaussian noise.
+
+    Channels in schema order (``SENSOR_CHANNELS``), each drawn from ``rng`` in that order
+    only when its noise is > 0. Energy and distance are never negative, so noise around a
+    small true value is floored at 0. Writes into ``out``'s arrays when given.
+    """
+    truth = {
+        "speed_kmh": (t.speed_mps * 3.6, noise.speed_kmh),
+        "mass_kg": (t.mass_kg, noise.mass_kg),
+        "slope_rad": (t.slope_rad, noise.slope_rad),
+        "energy_j": (t.energy_j, noise.energy_j),
+        "temp_c": (t.temp_mean_c, noise.temp_c),
+        "stop_dist_m": (t.stop_dist_m, noise.stop_dist_m),
+    }
+    out = out if out is not None else {k: np.empty(t.n_events) for k in SENSOR_CHANNELS}
+    for k, (x, sigma) in truth.items():
+        out[k][:] = x
+        if sigma > 0:
+            out[k] += rng.normal(0.0, sigma, t.n_events)
+    np.maximum(out["energy_j"], 0.0, out=out["energy_j"])
+    np.maximum(out["stop_dist_m"], 0.0, out=out["stop_dist_m"])
+    return out
+
+
 def event_logs(
     runs: list[tuple[str, Trajectory]], noise: SensorNoise, rngs: list[np.random.Generator]
 ) -> pd.DataFrame:
@@ -113,26 +143,12 @@ def event_logs(
     failed = np.zeros(total, dtype=bool)
     for (_, t), rng, end, n in zip(runs, rngs, ends, sizes, strict=True):
         sl = slice(int(end - n), int(end))
-        truth = {
-            "speed_kmh": (t.speed_mps * 3.6, noise.speed_kmh),
-            "mass_kg": (t.mass_kg, noise.mass_kg),
-            "slope_rad": (t.slope_rad, noise.slope_rad),
-            "energy_j": (t.energy_j, noise.energy_j),
-            "temp_c": (t.temp_mean_c, noise.temp_c),
-            "stop_dist_m": (t.stop_dist_m, noise.stop_dist_m),
-        }
-        for k, (x, sigma) in truth.items():
-            cols[k][sl] = x
-            if sigma > 0:
-                cols[k][sl] += rng.normal(0.0, sigma, int(n))
+        measure(t, noise, rng, out={k: cols[k][sl] for k in SENSOR_CHANNELS})
         cols["volume_frac"][sl] = t.volume_frac
         cols["wear_coeff"][sl] = t.wear_coeff
         event[sl] = np.arange(n)
         rul[sl] = t.rul_events
         failed[int(end) - 1] = True
-    # Energy and distance are never negative; noise around a small true value is floored.
-    np.maximum(cols["energy_j"], 0.0, out=cols["energy_j"])
-    np.maximum(cols["stop_dist_m"], 0.0, out=cols["stop_dist_m"])
     run_id = pd.Categorical.from_codes(
         np.repeat(np.arange(len(runs), dtype=np.int32), sizes), pd.Index([rid for rid, _ in runs])
     )

@@ -61,6 +61,18 @@ class EventBatch:
     def __len__(self) -> int:
         return len(self.event)
 
+    def __eq__(self, other: object) -> bool:
+        """Same events, value for value (env checkers compare infos for determinism)."""
+        if not isinstance(other, EventBatch):
+            return NotImplemented
+        pairs = ((getattr(self, f.name), getattr(other, f.name)) for f in fields(self))
+        return all(
+            (a is None and b is None) or (a is not None and b is not None and np.array_equal(a, b))
+            for a, b in pairs
+        )
+
+    __hash__ = None  # type: ignore[assignment]  # mutable arrays inside
+
     @property
     def has_truth(self) -> bool:
         return self.rul_events is not None
@@ -139,7 +151,8 @@ class RULEstimate:
 class RULPredictor(Protocol):
     """Anything that estimates RUL from braking events (DESIGN 5)."""
 
-    name: str
+    @property
+    def name(self) -> str: ...
 
     def fit(self, train_log: pd.DataFrame) -> Self: ...
 

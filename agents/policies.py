@@ -1,0 +1,107 @@
+"""Rule-based replacement policies with Stable-Baselines3's ``predict`` signature, so a rule
+and a trained agent are evaluated by the same function."""
+
+from __future__ import annotations
+
+from typing import Any, Protocol, runtime_checkable
+
+import numpy as np
+from numpy.typing import NDArray
+
+from brake_env.env import KEEP, OBS_NAMES, REPLACE
+
+AGE_INDEX = OBS_NAMES.index("events_since_install")
+RUL_INDEX = len(OBS_NAMES)  # the first field RULObservation appends: rul_mean
+
+
+@runtime_checkable
+class Policy(Protocol):
+    """Anything with SB3's ``predict``: a rule below or a trained SB3 model."""
+
+    def predict(
+        self,
+        observation: NDArray[Any],
+        state: tuple[NDArray[Any], ...] | None = None,
+        episode_start: NDArray[np.bool_] | None = None,
+        deterministic: bool = False,
+    ) -> tuple[NDArray[Any], tuple[NDArray[Any], ...] | None]: ...
+
+
+class _Rule:
+    """A stateless rule: replace where ``_replace(obs)`` is true, for one obs or a batch."""
+
+    def predict(
+        self,
+        observation: NDArray[Any],
+        state: tuple[NDArray[Any], ...] | None = None,
+        episode_start: NDArray[np.bool_] | None = None,
+        deterministic: bool = False,
+    ) -> tuple[NDArray[Any], tuple[NDArray[Any], ...] | None]:
+        obs = np.asarray(observation)
+        batch = np.atleast_2d(obs)
+        actions = np.where(self._replace(batch), REPLACE, KEEP).astype(np.int64)
+        return (actions if obs.ndim == 2 else actions[0]), state
+
+    def _replace(self, obs: NDArray[Any]) -> NDArray[np.bool_]:
+        raise NotImplementedError
+
+
+class ReplaceOnFailure(_Rule):
+    """Never replace: the pad runs until it fails (corrective maintenance only)."""
+
+    def _replace(self, obs: NDArray[Any]) -> NDArray[np.bool_]:
+        return np.zeros(len(obs), dtype=bool)
+
+    def __repr__(self) -> str:
+        return "ReplaceOnFailure()"
+
+
+class FixedInterval(_Rule):
+    """Replace once the pad has braked ``interval_events`` times (time-based maintenance).
+
+    Args:
+        interval_events: Pad age at which to replace [events], > 0.
+        age_index: Where the observation holds the pad's age (BrakeWear-v0's layout).
+    """
+
+    def __init__(self, interval_events: float, age_index: int = AGE_INDEX) -> None:
+        if not interval_events > 0:
+            raise ValueError(f"FixedInterval: interval_events must be > 0, got {interval_events}")
+        self.interval_events = float(interval_events)
+        self.age_index = age_index
+
+    def _replace(self, obs: NDArray[Any]) -> NDArray[np.bool_]:
+        return obs[:, self.age_index] >= self.interval_events
+
+    def __repr__(self) -> str:
+        return f"FixedInterval({self.interval_events:g})"
+
+
+class RULThreshold(_Rule):
+    """Replace when the estimated RUL falls below ``threshold_events`` (predictive maintenance).
+
+    With the true RUL and a threshold of one decision interval this never fails: a pad is
+    replaced exactly when it could not finish the next step.
+
+    Args:
+        threshold_events: Replace below this estimated RUL [events], >= 0.
+        rul_index: Where the observation holds the RUL estimate (``RULObservation`` appends
+            it after BrakeWear-v0's fields).
+    """
+
+    def __init__(self, threshold_events: float, rul_index: int = RUL_INDEX) -> None:
+        if not threshold_events >= 0:
+            raise ValueError(f"RULThreshold: threshold_events must be >= 0, got {threshold_events}")
+        self.threshold_events = float(threshold_events)
+        self.rul_index = rul_index
+
+    def _replace(self, obs: NDArray[Any]) -> NDArray[np.bool_]:
+        if obs.shape[1] <= self.rul_index:
+            raise ValueError(
+                f"RULThreshold: observation has {obs.shape[1]} fields, no RUL estimate at"
+                f" index {self.rul_index}; wrap the env in RULObservation"
+            )
+        return obs[:, self.rul_index] < self.threshold_events
+
+    def __repr__(self) -> str:
+        return f"RULThreshold({self.threshold_events:g})"

@@ -1,0 +1,77 @@
+"""Rule-based policies and the cost evaluator."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from agents.evaluation import compare_policies, oracle_policy, run_episodes, summary_rows
+from agents.policies import AGE_INDEX, FixedInterval, Policy, ReplaceOnFailure, RULThreshold
+from brake_env.env import BrakeWearEnv
+from brake_env.predictors import NoPrognostics
+from brake_env.wrappers import RULObservation
+
+FAST = {"k_mean": 1e-5, "k_std": 1e-6, "decision_interval": 500, "episode_events": 100_000}
+
+
+def test_rules_follow_sb3_predict_for_one_obs_and_a_batch():
+    obs = np.zeros((3, 8), dtype=np.float32)
+    obs[:, AGE_INDEX] = [10, 1000, 5000]
+    obs[:, -1] = [100, 600, 5000]
+    a, state = FixedInterval(1000).predict(obs)
+    assert a.tolist() == [0, 1, 1] and state is None
+    assert RULThreshold(500).predict(obs)[0].tolist() == [1, 0, 0]
+    assert ReplaceOnFailure().predict(obs)[0].tolist() == [0, 0, 0]
+    single, _ = FixedInterval(1000).predict(obs[1])
+    assert single.shape == () and int(single) == 1
+    for rule in (FixedInterval(1), RULThreshold(1), ReplaceOnFailure()):
+        assert isinstance(rule, Policy)
+
+
+def test_rule_arguments_are_checked():
+    with pytest.raises(ValueError, match="interval_events must be > 0"):
+        FixedInterval(0)
+    with pytest.raises(ValueError, match="threshold_events must be >= 0"):
+        RULThreshold(-1)
+    with pytest.raises(ValueError, match="wrap the env in RULObservation"):
+        RULThreshold(10).predict(np.zeros(7))
+
+
+def test_replace_on_failure_report_counts_every_pad_as_failed(atlas):
+    r = run_episodes(ReplaceOnFailure(), BrakeWearEnv(atlas=atlas, **FAST), [0, 1])
+    assert r.events == 2 * FAST["episode_events"]
+    assert r.failures > 0 and r.planned_replacements == 0
+    assert r.failures_per_100_pads == 100.0 and r.mean_unused_life_frac == 0.0
+    # Default weights: a failure costs 1000 + 4000 + 5000.
+    assert r.cost == pytest.approx(10_000.0 * r.failures)
+
+
+def test_oracle_is_cheapest_and_ratios_are_relative_to_it(atlas):
+    def make():
+        return BrakeWearEnv(atlas=atlas, regime="mixed", **FAST)
+
+    entries = {
+        "replace-on-failure": (ReplaceOnFailure(), make()),
+        "fixed": (FixedInterval(15_000), make()),
+        "none": (RULThreshold(500), RULObservation(make(), NoPrognostics(2.4e4))),
+    }
+    reports = compare_policies(entries, seeds=[0, 1, 2], make_env=make)
+    oracle = reports["oracle"]
+    assert oracle.ratio_to_oracle == 1.0 and oracle.failures == 0
+    for name, r in reports.items():
+        assert r.cost >= oracle.cost, name
+        assert r.ratio_to_oracle == pytest.approx(r.cost / oracle.cost)
+    # Replacing with the true RUL wastes less than one decision interval of each pad.
+    assert max(oracle.retired_rul_events) < FAST["decision_interval"]
+    assert summary_rows(reports)[1][0] == "oracle"
+    json.dumps({k: r.to_dict() for k, r in reports.items()})
+    lo, hi = oracle.interval()
+    assert lo <= oracle.cost_per_1000_events <= hi
+
+
+def test_same_seeds_same_report(atlas):
+    a = run_episodes(*oracle_policy(BrakeWearEnv(atlas=atlas, **FAST)), seeds=[4])
+    b = run_episodes(*oracle_policy(BrakeWearEnv(atlas=atlas, **FAST)), seeds=[4])
+    assert a.cost == b.cost and a.retired_rul_events == b.retired_rul_events
