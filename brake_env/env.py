@@ -12,7 +12,7 @@ from numpy.typing import NDArray
 
 from brake_env.atlas import Atlas, AtlasSpec, cached_atlas
 from brake_env.env_config import EnvConfig
-from brake_env.pads import PadService
+from brake_env.pads import PadLife, PadService
 from brake_env.params import BrakeModel
 from brake_env.predictors import MEASURED
 
@@ -180,6 +180,19 @@ class BrakeWearEnv(gym.Env[NDArray[np.float32], np.int64]):
             c["revenue"]
             - (c["planned_replacement"] + c["corrective_replacement"] + c["downtime"] + c["damage"])
         )
+
+    @property
+    def installed_pad(self) -> PadLife:
+        """The installed pad's whole simulated life (ground truth; for wrappers that
+        precompute a causal predictor over it, never for a policy)."""
+        if self._service.pad is None:
+            raise RuntimeError("BrakeWear-v0: call reset() first")
+        return self._service.pad
+
+    @property
+    def pad_age(self) -> int:
+        """Events the installed pad has braked."""
+        return self._service.pos
 
     def render(self) -> str | None:
         if self.render_mode != "ansi" or not self._last_info:

@@ -121,6 +121,9 @@ class EnvConfig:
         noise: Sensor noise of the observed channels (a :class:`SensorNoise` or a dict).
         preset: Brake calibration of the default atlas (``hot-duty`` or ``cold-start``).
         interpolate_layers: Blend adjacent atlas layers by volume (paper footnote 1).
+        cache_pads: Keep the last this many simulated pads (~7.5 MB each at the default K)
+            so that replaying a seed does not simulate its pads again; 0 keeps none. A pure
+            speed option: the pads are the same either way.
     """
 
     decision_interval: int = 500
@@ -134,11 +137,13 @@ class EnvConfig:
     noise: SensorNoise = field(default_factory=SensorNoise)
     preset: str = "hot-duty"
     interpolate_layers: bool = False
+    cache_pads: int = 0
 
     def __post_init__(self) -> None:
         for name, lo, hi in (
             ("decision_interval", 1, MAX_DECISION_INTERVAL),
             ("episode_events", 2, 10**9),
+            ("cache_pads", 0, 10_000),
         ):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, int | np.integer) or not lo <= v <= hi:

@@ -11,6 +11,7 @@ exact.
 
 from __future__ import annotations
 
+from collections import OrderedDict
 from dataclasses import dataclass
 from typing import Any
 
@@ -20,7 +21,7 @@ from numpy.typing import NDArray
 from brake_env.atlas import Atlas
 from brake_env.datasets import measure
 from brake_env.env_config import EnvConfig
-from brake_env.predictors import MEASURED, EventBatch
+from brake_env.predictors import MEASURED, TRUTH, EventBatch
 from brake_env.simulator import F64, simulate_runs
 
 COST_TERMS = ("planned_replacement", "corrective_replacement", "downtime", "damage", "revenue")
@@ -48,6 +49,16 @@ class PadLife:
     def n_events(self) -> int:
         """Events the pad completes; after the last one it can no longer stop the vehicle."""
         return len(self.volume_frac)
+
+    def events(self, start: int = 0, stop: int | None = None) -> EventBatch:
+        """Events ``start`` to ``stop`` (default: to the end of life) with ground truth."""
+        b = self.n_events if stop is None else stop
+        cols: dict[str, Any] = {"event": np.arange(start, b)}
+        cols.update((k, self.measured[start:b, i]) for i, k in enumerate(MEASURED))
+        cols["volume_frac"] = self.volume_frac[start:b]
+        cols["wear_coeff"] = np.full(b - start, self.wear_coeff)
+        cols["rul_events"] = np.arange(self.n_events - 1 - start, self.n_events - 1 - b, -1)
+        return EventBatch(**cols)
 
 
 def simulate_pad(
@@ -85,6 +96,10 @@ class PadService:
         }
         self.pad: PadLife | None = None
         self.pos = 0  # events the installed pad has completed
+        # Pads are a pure function of (K, seed): with cache_pads > 0, the last pads made
+        # are kept, so episodes replayed with the same seed (policy comparisons, threshold
+        # tuning) simulate each pad once.
+        self._cache: OrderedDict[tuple[float, int], PadLife] = OrderedDict()
         self.events_done = 0  # events of the episode so far
 
     # ------------------------------------------------------------------ transitions
@@ -117,9 +132,17 @@ class PadService:
     # ------------------------------------------------------------------ internals
     def _install(self) -> None:
         k, label = self.regime.draw(self.rng)
-        seed = np.random.SeedSequence(int(self.rng.integers(2**63)))
-        self.pad = simulate_pad(self.atlas, self.config, k, label, seed)
-        self.pos = 0
+        entropy = int(self.rng.integers(2**63))
+        pad = self._cache.get((k, entropy))
+        if pad is None:
+            pad = simulate_pad(self.atlas, self.config, k, label, np.random.SeedSequence(entropy))
+            if self.config.cache_pads:
+                self._cache[(k, entropy)] = pad
+                while len(self._cache) > self.config.cache_pads:
+                    self._cache.popitem(last=False)
+        else:
+            self._cache.move_to_end((k, entropy))
+        self.pad, self.pos = pad, 0
 
     def _serve(self, n: int, replaced: bool) -> dict[str, Any]:
         costs = dict.fromkeys(COST_TERMS, 0.0)
@@ -177,19 +200,13 @@ class PadService:
 
 
 def _event_columns(segments: list[tuple[PadLife, int, int]]) -> EventBatch:
-    """The step's events, views of the pad's arrays unless a failure split the step between
-    two pads. An EventBatch, not a dict: vector envs then keep each sub-env's batch whole
+    """The step's events: views of the pad's arrays, unless a failure split the step between
+    two pads. An EventBatch, not a dict, so vector envs keep each sub-env's batch whole
     instead of stacking arrays whose lengths differ between sub-envs."""
-
-    def one(pad: PadLife, a: int, b: int) -> dict[str, np.ndarray]:
-        cols: dict[str, np.ndarray] = {"event": np.arange(a, b)}
-        cols.update((k, pad.measured[a:b, i]) for i, k in enumerate(MEASURED))
-        cols["volume_frac"] = pad.volume_frac[a:b]
-        cols["wear_coeff"] = np.full(b - a, pad.wear_coeff)
-        cols["rul_events"] = np.arange(pad.n_events - 1 - a, pad.n_events - 1 - b, -1)
-        return cols
-
-    parts = [one(*s) for s in segments]
+    parts = [pad.events(a, b) for pad, a, b in segments]
     if len(parts) == 1:
-        return EventBatch(**parts[0])
-    return EventBatch(**{k: np.concatenate([p[k] for p in parts]) for k in parts[0]})
+        return parts[0]
+    merged = {
+        k: np.concatenate([getattr(p, k) for p in parts]) for k in ("event", *MEASURED, *TRUTH)
+    }
+    return EventBatch(**merged)

@@ -3,12 +3,14 @@
 from __future__ import annotations
 
 from typing import Any, SupportsFloat
+from weakref import WeakKeyDictionary
 
 import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 from numpy.typing import NDArray
 
+from brake_env.pads import PadLife
 from brake_env.predictors import EventBatch, RULEstimate, RULPredictor
 
 ESTIMATE_FIELDS = ("rul_mean", "rul_lower", "rul_upper")
@@ -30,6 +32,13 @@ class RULObservation(gym.ObservationWrapper[NDArray[np.float32], Any, NDArray[np
         predictor: A fitted RUL predictor (:class:`brake_env.predictors.RULPredictor`).
         fields: Which estimate fields to append: ``rul_mean`` and optionally ``rul_lower``,
             ``rul_upper`` (the predictor must give them).
+        precompute: Run the predictor over each pad's whole simulated life once, when the
+            pad is installed, and look the estimates up by pad age afterwards (kept per pad,
+            so an episode replayed with the same seed and the env's ``cache_pads`` costs no
+            predictor time at all). The observations are the same as without it for any
+            causal predictor that gives the same estimates whatever the batch sizes (the
+            protocol's contract; tested for every predictor). Needs a bare BrakeWear-v0
+            underneath.
     """
 
     def __init__(
@@ -37,6 +46,7 @@ class RULObservation(gym.ObservationWrapper[NDArray[np.float32], Any, NDArray[np
         env: gym.Env[NDArray[np.float32], Any],
         predictor: RULPredictor,
         fields: tuple[str, ...] = ("rul_mean",),
+        precompute: bool = False,
     ) -> None:
         super().__init__(env)
         bad = [f for f in fields if f not in ESTIMATE_FIELDS]
@@ -56,6 +66,8 @@ class RULObservation(gym.ObservationWrapper[NDArray[np.float32], Any, NDArray[np
             dtype=np.float32,
         )
         self._estimate = np.zeros(n, dtype=np.float32)
+        self.precompute = precompute
+        self._lives: WeakKeyDictionary[PadLife, RULEstimate] = WeakKeyDictionary()
 
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
@@ -75,27 +87,36 @@ class RULObservation(gym.ObservationWrapper[NDArray[np.float32], Any, NDArray[np
         return np.concatenate([observation, self._estimate]).astype(np.float32, copy=False)
 
     def _feed(self, info: dict[str, Any]) -> None:
-        events: EventBatch = info["events"]
-        fresh = np.flatnonzero(events.event == 0)
-        if fresh.size:  # a pad was installed in this step: its events start there
-            self.predictor.reset()
-            events = events[int(fresh[-1]) :]
-        est = self.predictor.update(events)
+        if self.precompute:
+            base = self.env.unwrapped
+            pad: PadLife = base.installed_pad  # type: ignore[attr-defined]
+            if pad not in self._lives:
+                self.predictor.reset()
+                self._lives[pad] = self.predictor.update(pad.events())
+            est = self._lives[pad]
+            at = base.pad_age - 1  # type: ignore[attr-defined]
+        else:
+            events: EventBatch = info["events"]
+            fresh = np.flatnonzero(events.event == 0)
+            if fresh.size:  # a pad was installed in this step: its events start there
+                self.predictor.reset()
+                events = events[int(fresh[-1]) :]
+            est, at = self.predictor.update(events), -1
         values = []
         for f in self.fields:
             x = getattr(est, f)
             if x is None:
                 raise ValueError(f"RULObservation: predictor {self.predictor.name!r} gives no {f}")
-            values.append(x[-1])
+            values.append(x[at])
         np.clip(values, 0.0, _RUL_HIGH, out=self._estimate)
-        info["rul_estimate"] = _latest(est)
+        info["rul_estimate"] = _at(est, at)
 
 
-def _latest(est: RULEstimate) -> dict[str, float]:
-    """The estimate after the last event, as plain floats (missing fields left out)."""
+def _at(est: RULEstimate, i: int) -> dict[str, float]:
+    """The estimate after event ``i``, as plain floats (missing fields left out)."""
     out = {}
     for name in ("rul_mean", "rul_lower", "rul_upper", "volume_frac", "wear_coeff"):
         x = getattr(est, name)
         if x is not None:
-            out[name] = float(x[-1])
+            out[name] = float(x[i])
     return out

@@ -318,3 +318,14 @@ def test_wrapper_rejects_missing_interval_fields(make):
         env.reset(seed=0)
     with pytest.raises(ValueError, match="fields must be among"):
         RULObservation(make(), Oracle(), fields=("volume",))
+
+
+@pytest.mark.parametrize("predictor", [Oracle, lambda: NoPrognostics(2e4)])
+def test_precomputed_wrapper_gives_the_incremental_observations(make, predictor):
+    a = RULObservation(make(), predictor())
+    b = RULObservation(make(cache_pads=8), predictor(), precompute=True)
+    assert same(rollout(a, 3, 199, p_replace=0.05), rollout(b, 3, 199, p_replace=0.05))
+    # Replaying the seed reuses the cached pads and their estimates.
+    n_cached = len(b._lives)
+    assert same(rollout(a, 3, 199, p_replace=0.05), rollout(b, 3, 199, p_replace=0.05))
+    assert len(b._lives) == n_cached > 0
