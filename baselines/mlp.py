@@ -1,0 +1,255 @@
+"""Data-driven RUL baseline (paper 2.2): an MLP from one event's measurements to the RUL.
+
+Inputs, per event: the event index since installation, stopping distance, kinetic energy,
+slope and brake temperature (paper 2.2's ``x = [N, d, E, theta, T]``; our logs carry the
+mean event temperature). Each is standardised with the training set's mean and standard
+deviation; a missing reading (sensor dropout, NaN) becomes the training mean. The target
+is the true RUL of each training event, scaled by its training standard deviation. Two
+hidden layers of 20 and 10 ReLU units, one linear output, mean-squared error, Adam with a
+cosine-decaying learning rate over minibatches of the ~1e6 training events, on the CPU.
+
+Deterministic for a seed: the weights are initialised and the minibatches shuffled from one
+``torch.Generator``. Saved as weights only: an ``.npz`` of the state dict (read back with
+``allow_pickle=False``) and a JSON file of the standardisation statistics and the config.
+This module is the only one of the package that imports torch.
+"""
+
+from __future__ import annotations
+
+import itertools
+import json
+import math
+import time
+from collections.abc import Callable
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+import torch
+from numpy.typing import NDArray
+from torch import nn
+
+from baselines._runs import true_rul
+from brake_env._validate import check_positive, from_dict
+from brake_env.predictors import EventBatch, Predictor, RULEstimate
+
+F64 = NDArray[np.float64]
+FEATURES = ("event", "stop_dist_m", "energy_j", "slope_rad", "temp_c")
+FORMAT_VERSION = 1
+_PREDICT_CHUNK = 1 << 18
+
+
+@dataclass(frozen=True)
+class MLPConfig:
+    """Network and training of the data-driven baseline.
+
+    Attributes:
+        hidden: Units of each hidden layer (the paper: 20 and 10).
+        epochs: Passes over the training events.
+        batch_size: Events per gradient step.
+        learning_rate: Initial Adam step size; it decays to 0 along a cosine [-].
+        weight_decay: L2 penalty of Adam [-].
+        seed: Seed of weight initialisation and minibatch shuffling.
+        threads: Torch CPU threads while fitting and predicting (restored after).
+    """
+
+    hidden: tuple[int, ...] = (20, 10)
+    epochs: int = 8
+    batch_size: int = 512
+    learning_rate: float = 3e-3
+    weight_decay: float = 0.0
+    seed: int = 0
+    threads: int = 1
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "hidden", tuple(self.hidden))
+        if not self.hidden or not all(isinstance(h, int) and h > 0 for h in self.hidden):
+            raise ValueError(f"MLPConfig.hidden must be positive ints, got {self.hidden!r}")
+        for name in ("epochs", "batch_size", "threads"):
+            n = getattr(self, name)
+            if not isinstance(n, int) or n < 1:
+                raise ValueError(f"MLPConfig.{name} must be an int >= 1, got {n!r}")
+        check_positive(self, "learning_rate")
+        if not self.weight_decay >= 0:
+            raise ValueError(f"MLPConfig.weight_decay must be >= 0, got {self.weight_decay}")
+        if not isinstance(self.seed, int):
+            raise ValueError(f"MLPConfig.seed must be an int, got {self.seed!r}")
+
+
+def build_network(n_in: int, hidden: tuple[int, ...], generator: torch.Generator) -> nn.Sequential:
+    """ReLU layers ``n_in -> hidden... -> 1``, initialised like ``nn.Linear`` from ``generator``."""
+    layers: list[nn.Module] = []
+    sizes = (n_in, *hidden, 1)
+    for a, b in itertools.pairwise(sizes):
+        lin = nn.Linear(a, b, dtype=torch.float32)
+        # nn.Linear's default init (Kaiming-uniform, a = sqrt(5)) but from our generator,
+        # not the global one: U(-1/sqrt(fan_in), 1/sqrt(fan_in)) for weights and biases.
+        bound = 1.0 / math.sqrt(a)
+        with torch.no_grad():
+            lin.weight.uniform_(-bound, bound, generator=generator)
+            lin.bias.uniform_(-bound, bound, generator=generator)
+        layers += [lin, nn.ReLU()]
+    return nn.Sequential(*layers[:-1])
+
+
+def features(events: EventBatch | pd.DataFrame) -> F64:
+    """The input matrix (events x FEATURES), unstandardised; NaN where a reading is missing."""
+    cols = [
+        np.asarray(getattr(events, f) if isinstance(events, EventBatch) else events[f])
+        for f in FEATURES
+    ]
+    return np.stack([c.astype(np.float64) for c in cols], axis=1)
+
+
+class MLPPredictor(Predictor):
+    """Direct RUL regression from one event's measurements (paper 2.2).
+
+    Args:
+        config: Network and training options.
+
+    Attributes:
+        x_mean, x_std: Standardisation of the inputs, from the training events.
+        y_scale: Standard deviation of the training RUL; the network predicts RUL / y_scale.
+        loss_history: Mean training loss of each epoch (on the scaled target).
+        fit_seconds: Wall time of the last fit.
+    """
+
+    name = "data"
+
+    def __init__(self, config: MLPConfig | None = None) -> None:
+        super().__init__()
+        self.config = config or MLPConfig()
+        self.net: nn.Sequential | None = None
+        self.x_mean: F64 | None = None
+        self.x_std: F64 | None = None
+        self.y_scale = 1.0
+        self.loss_history: list[float] = []
+        self.fit_seconds = 0.0
+        self.progress: Callable[[int], object] | None = None
+
+    # ---------------------------------------------------------------- training
+    def _fit(self, train_log: pd.DataFrame) -> None:
+        cfg = self.config
+        t0 = time.perf_counter()
+        x = features(train_log)
+        y = true_rul(train_log)
+        if len(y) < 2:
+            raise ValueError("data: the training log needs at least two events")
+        self.x_mean = np.nanmean(x, axis=0)
+        std = np.nanstd(x, axis=0)
+        self.x_std = np.where(std > 0, std, 1.0)
+        self.y_scale = float(np.std(y)) or 1.0
+        xs = torch.from_numpy(self._standardise(x))
+        ys = torch.from_numpy((y / self.y_scale).astype(np.float32))[:, None]
+
+        g = torch.Generator().manual_seed(cfg.seed)
+        threads = torch.get_num_threads()
+        torch.set_num_threads(cfg.threads)
+        try:
+            net = build_network(len(FEATURES), cfg.hidden, g)
+            opt = torch.optim.Adam(
+                net.parameters(), lr=cfg.learning_rate, weight_decay=cfg.weight_decay
+            )
+            n = len(ys)
+            steps_per_epoch = math.ceil(n / cfg.batch_size)
+            sched = torch.optim.lr_scheduler.CosineAnnealingLR(
+                opt, T_max=cfg.epochs * steps_per_epoch
+            )
+            loss_fn = nn.MSELoss()
+            self.loss_history = []
+            for _ in range(cfg.epochs):
+                perm = torch.randperm(n, generator=g)
+                total = 0.0
+                for i in range(steps_per_epoch):
+                    idx = perm[i * cfg.batch_size : (i + 1) * cfg.batch_size]
+                    opt.zero_grad(set_to_none=True)
+                    loss = loss_fn(net(xs[idx]), ys[idx])
+                    loss.backward()
+                    opt.step()
+                    sched.step()
+                    total += float(loss.detach()) * len(idx)
+                self.loss_history.append(total / n)
+                if self.progress:
+                    self.progress(1)
+        finally:
+            torch.set_num_threads(threads)
+        self.net = net.eval()
+        self.fit_seconds = time.perf_counter() - t0
+
+    def _standardise(self, x: F64) -> NDArray[np.float32]:
+        assert self.x_mean is not None and self.x_std is not None
+        z = (x - self.x_mean) / self.x_std
+        return np.nan_to_num(z, nan=0.0).astype(np.float32)  # missing reading -> the mean
+
+    # ---------------------------------------------------------------- prediction
+    def predict(self, x: F64) -> F64:
+        """RUL [events] for raw input rows (events x FEATURES), floored at 0."""
+        if self.net is None:
+            raise RuntimeError("data: call fit() or load() before predicting")
+        z = torch.from_numpy(self._standardise(np.asarray(x, dtype=np.float64)))
+        threads = torch.get_num_threads()
+        torch.set_num_threads(self.config.threads)
+        try:
+            with torch.no_grad():
+                out = [
+                    self.net(z[i : i + _PREDICT_CHUNK]) for i in range(0, len(z), _PREDICT_CHUNK)
+                ]
+        finally:
+            torch.set_num_threads(threads)
+        y = torch.cat(out).numpy()[:, 0].astype(np.float64) * self.y_scale
+        return np.maximum(y, 0.0)
+
+    def _update(self, events: EventBatch) -> RULEstimate:
+        return RULEstimate(rul_mean=self.predict(features(events)))
+
+    # ---------------------------------------------------------------- files
+    def save(self, path: str | Path) -> tuple[Path, Path]:
+        """Write ``<path>.npz`` (weights) and ``<path>.json`` (config, standardisation)."""
+        if self.net is None or self.x_mean is None or self.x_std is None:
+            raise RuntimeError("data: nothing to save, the network is not fitted")
+        base = Path(path).with_suffix("")
+        base.parent.mkdir(parents=True, exist_ok=True)
+        weights = {k: v.detach().cpu().numpy() for k, v in self.net.state_dict().items()}
+        npz = base.with_suffix(".npz")
+        np.savez(npz, **weights)
+        meta: dict[str, Any] = {
+            "format": FORMAT_VERSION,
+            "predictor": self.name,
+            "features": list(FEATURES),
+            "x_mean": self.x_mean.tolist(),
+            "x_std": self.x_std.tolist(),
+            "y_scale": self.y_scale,
+            "config": {**asdict(self.config), "hidden": list(self.config.hidden)},
+            "loss_history": self.loss_history,
+            "fit_seconds": self.fit_seconds,
+        }
+        js = base.with_suffix(".json")
+        js.write_text(json.dumps(meta, indent=2) + "\n")
+        return npz, js
+
+    @classmethod
+    def load(cls, path: str | Path) -> MLPPredictor:
+        """A fitted predictor from the files written by :meth:`save` (no pickle involved)."""
+        base = Path(path).with_suffix("")
+        npz, js = base.with_suffix(".npz"), base.with_suffix(".json")
+        for p in (npz, js):
+            if not p.is_file():
+                raise FileNotFoundError(f"data: no saved network at {p}")
+        meta = json.loads(js.read_text())
+        if meta.get("format") != FORMAT_VERSION or meta.get("features") != list(FEATURES):
+            raise ValueError(f"{js}: not a format-{FORMAT_VERSION} MLP file of features {FEATURES}")
+        cfg = from_dict(MLPConfig, {**meta["config"], "hidden": tuple(meta["config"]["hidden"])})
+        self = cls(cfg)
+        self.x_mean = np.asarray(meta["x_mean"], dtype=np.float64)
+        self.x_std = np.asarray(meta["x_std"], dtype=np.float64)
+        self.y_scale = float(meta["y_scale"])
+        self.loss_history = list(meta.get("loss_history", []))
+        self.fit_seconds = float(meta.get("fit_seconds", 0.0))
+        net = build_network(len(FEATURES), cfg.hidden, torch.Generator().manual_seed(0))
+        with np.load(npz, allow_pickle=False) as f:
+            state = {k: torch.from_numpy(f[k]) for k in f.files}
+        net.load_state_dict(state)
+        self.net = net.eval()
+        return self

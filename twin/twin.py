@@ -1,0 +1,299 @@
+"""The digital twin (paper 2.4): a Bayesian grid filter over the wear coefficient K.
+
+The paper infers the pad volume from each event's temperature through the atlas, inverts
+"events needed to wear from a fresh pad to that volume" for K, and simulates forward to
+failure. Given K, the expected wear path is closed-form (:mod:`twin.wear_model`): after
+``n`` events the pad has done work ``u = K * n`` and sits in the layer where that work
+ends, so the volume after ``n`` events is almost deterministic. The twin therefore keeps a
+posterior over K on a log-spaced grid and updates it at every event with
+
+    log p(T_meas | K) = -((T_meas - bias - T_atlas(v, m, theta; layer(K * n)))**2 / var
+                          + log var) / 2,
+    var = sigma_T**2 + (dT_atlas/dtheta * sigma_theta)**2,
+
+where the second variance term carries the slope-sensor noise through the atlas (hot,
+steep events are less informative). The paper's three steps map onto this:
+
+- (a) reverse inference: the likelihood compares the measured temperature with every
+  layer's atlas temperature at the event's measured conditions (one table per event);
+- (b) identification: each grid K predicts the layer of every event, and the posterior
+  weighs all of them (the paper's argmin of ``|N_sim(1 -> V_hat; K) - n|``, filtered over
+  all events instead of taken from one);
+- (c) prognosis: the events from the current state to failure at K are
+  ``life(K) - n`` (closed-form sum over layers), averaged over the posterior; interval
+  bounds are posterior quantiles, widened by the spread of the future operating mix.
+
+A pad that keeps braking beyond ``life(K)`` rules that K out (a one-sided Gaussian term
+with the operating-mix spread of the life). Per event the cost is a gather over the
+layers and a few passes over the K grid, vectorised over the events of a batch.
+"""
+
+from __future__ import annotations
+
+import math
+from statistics import NormalDist
+from typing import ClassVar
+
+import numpy as np
+import pandas as pd
+from numpy.typing import NDArray
+
+from brake_env.atlas import Atlas
+from brake_env.predictors import EventBatch, Predictor, RULEstimate
+from twin.config import TwinCalibration, TwinConfig
+from twin.wear_model import TemperatureTable, WearModel
+
+F64 = NDArray[np.float64]
+FIT_COLUMNS = ("run_id", "event", "speed_kmh", "mass_kg", "slope_rad", "temp_c")
+
+
+class DigitalTwin(Predictor):
+    """Digital twin RUL predictor: online K identification through the atlas.
+
+    Args:
+        atlas: The atlas the twin reasons with (normally the one the data came from).
+        config: Grid and prior settings.
+        calibration: Prior and noise model; set by :meth:`fit` when not given.
+
+    Attributes:
+        wear: Closed-form wear path of the atlas.
+        calibration: The prior over K and the temperature noise model, or None before fit.
+    """
+
+    name: ClassVar[str] = "twin"
+    interval_level: ClassVar[float | None] = 0.9
+
+    def __init__(
+        self,
+        atlas: Atlas,
+        config: TwinConfig | None = None,
+        *,
+        calibration: TwinCalibration | None = None,
+    ) -> None:
+        super().__init__()
+        self.atlas = atlas
+        self.config = config or TwinConfig()
+        self.wear = WearModel.from_atlas(atlas)
+        self._table = TemperatureTable(atlas)
+        self.calibration: TwinCalibration | None = None
+        self._z = NormalDist().inv_cdf(0.5 + 0.5 * float(self.interval_level or 0.9))
+        if calibration is not None:
+            self.set_calibration(calibration)
+
+    # ------------------------------------------------------------------ calibration
+    def set_calibration(self, calibration: TwinCalibration) -> None:
+        """Use ``calibration`` (prior over K and noise model); resets the posterior."""
+        cfg = self.config
+        self.calibration = calibration
+        n = cfg.n_grid
+        self._log_k0 = calibration.k_log_mean - math.log(cfg.grid_factor)
+        self._dlog = 2.0 * math.log(cfg.grid_factor) / (n - 1)
+        log_k = self._log_k0 + self._dlog * np.arange(n)
+        self.k_grid = np.exp(log_k)
+        self._life = self.wear.life(self.k_grid)
+        self._life_std = self.wear.life_std(self.k_grid)
+        z = (log_k - calibration.k_log_mean) / calibration.k_log_scale
+        nu = calibration.prior_dof
+        core = -0.5 * z**2 if math.isinf(nu) else -0.5 * (nu + 1.0) * np.log1p(z**2 / nu)
+        p = np.exp(core - core.max())
+        broad = np.exp(-0.5 * ((log_k - calibration.k_log_mean) / cfg.outlier_log_std) ** 2)
+        p = (1.0 - cfg.outlier_weight) * p / p.sum() + cfg.outlier_weight * broad / broad.sum()
+        self._log_prior = np.log(p)
+        # Grid indices at which each layer's end is reached, per event: see _chunk.
+        self._log_edges = np.log(self.wear.work_edges[:-1])
+        self._reset()
+
+    def _fit(self, train_log: pd.DataFrame) -> None:
+        self.set_calibration(fit_calibration(self.atlas, train_log, self.config, self.wear))
+
+    # ------------------------------------------------------------------ filtering
+    def _reset(self) -> None:
+        if self.calibration is not None:
+            self._loglik = np.zeros(self.config.n_grid)
+
+    @property
+    def k_posterior(self) -> tuple[F64, F64]:
+        """(K grid, normalised posterior weights) after the events seen so far (no survival
+        term)."""
+        if self.calibration is None:
+            raise RuntimeError("twin: call fit() or give a calibration first")
+        post = self._loglik + self._log_prior
+        w = np.exp(post - post.max())
+        return self.k_grid.copy(), w / w.sum()
+
+    def _update(self, events: EventBatch) -> RULEstimate:
+        if self.calibration is None:
+            raise RuntimeError("twin: call fit() or give a calibration before update()")
+        step = self.config.chunk_events
+        parts = [self._chunk(events[i : i + step]) for i in range(0, len(events), step)]
+        cols = [np.concatenate(c) for c in zip(*parts, strict=True)]
+        return RULEstimate(*cols)
+
+    def _chunk(self, ev: EventBatch) -> tuple[F64, F64, F64, F64, F64]:
+        cal = self.calibration
+        assert cal is not None
+        n, n_k = len(ev), self.config.n_grid
+        s, m, th, temp = ev.speed_kmh / 3.6, ev.mass_kg, ev.slope_rad, ev.temp_c
+        ok = np.isfinite(s) & np.isfinite(m) & np.isfinite(th) & np.isfinite(temp)
+        if not ok.all():  # a dropped-out channel: the event carries no evidence
+            s, m, th, temp = (np.where(ok, x, 0.0) for x in (s, m, th, temp))
+
+        # (a) every layer's atlas temperature at this event's conditions -> log-likelihood.
+        t_atlas, dt_dslope = self._table.all_layers(s, m, th)
+        var = cal.temp_sigma_c**2 + (dt_dslope * cal.slope_sigma_rad) ** 2
+        r = (temp - cal.temp_bias_c)[:, None] - t_atlas
+        ll = -0.5 * (r * r / var + np.log(var))
+        ll -= ll.max(axis=1, keepdims=True)  # a constant per event: cancels in the posterior
+        ll[~ok] = 0.0
+
+        # (b) layer of each event for each grid K: layer j+1 once K * k >= work_edges[j],
+        # i.e. from grid index ceil((log work_j - log k - log K0) / dlog) on. The grid
+        # log-likelihood is piecewise constant in K: scatter the jumps, then a cumsum.
+        k_before = ev.event.astype(np.float64)
+        with np.errstate(divide="ignore"):
+            x = (self._log_edges[None, :] - np.log(k_before)[:, None] - self._log_k0) / self._dlog
+        first = np.clip(np.ceil(x), 0, n_k).astype(np.intp)  # k = 0: x = inf -> n_k (never)
+        rows = np.arange(n, dtype=np.intp)[:, None] * (n_k + 1)
+        jumps: F64 = np.bincount(
+            (rows + first).ravel(),
+            weights=(ll[:, 1:] - ll[:, :-1]).ravel(),
+            minlength=n * (n_k + 1),
+        ).astype(np.float64, copy=False)
+        grid_ll: F64 = np.cumsum(jumps.reshape(n, n_k + 1)[:, :n_k], axis=1)
+        grid_ll += ll[:, :1]
+        # Accumulate in event order from the carried sum: the same additions whatever the
+        # batching, so batches of 1 and of a whole run give the same numbers.
+        grid_ll[0] += self._loglik
+        acc: F64 = np.cumsum(grid_ll, axis=0)
+        self._loglik = acc[-1].copy()
+        post = acc
+        post += self._log_prior
+
+        # Survival: the pad has done n_after events, so K whose life ends before is unlikely.
+        n_after = k_before + 1.0
+        last = float(n_after[-1])
+        tail = int(np.searchsorted(-self._life, -(last + 8.0 * self._life_std.max())))
+        over = np.maximum(n_after[:, None] - self._life[None, tail:], 0.0)
+        if tail < n_k:
+            post[:, tail:] -= 0.5 * (over / self._life_std[tail:]) ** 2
+
+        # (c) prognosis: RUL(K) = life(K) - n_after, averaged over the posterior.
+        post -= post.max(axis=1, keepdims=True)
+        w = np.exp(post, out=post)
+        z = w.sum(axis=1)
+        k_mean = (w @ self.k_grid) / z
+        rul = (w @ self._life) / z - n_after
+        if tail < n_k:  # K whose life already ended contribute RUL 0, not a negative one
+            rul += (w[:, tail:] * over).sum(axis=1) / z
+        cdf = np.cumsum(w, axis=1)
+        q = (1.0 - float(self.interval_level or 0.9)) / 2.0
+        life_lo, life_med, life_hi = (
+            self.wear.life(np.exp(self._log_quantile(cdf, w, z, p))) for p in (q, 0.5, 1.0 - q)
+        )
+        if self.config.point_estimate == "median":
+            rul = np.maximum(life_med - n_after, 0.0)
+        # Beyond K, the operating mix spreads the life: in the path so far (the volume is
+        # known only through K) and in the future; ~ life_std(K) over a whole life.
+        spread = self._z * self.wear.life_std(k_mean)
+        lower = np.maximum(life_hi - n_after - spread, 0.0)
+        upper = np.maximum(life_lo - n_after, 0.0) + spread
+        volume = self.wear.volume_at_work(k_mean * n_after)
+        return rul, lower, upper, volume, k_mean
+
+    def _log_quantile(self, cdf: F64, w: F64, z: F64, p: float) -> F64:
+        """log K at posterior probability ``p`` per event, linear inside the grid cell."""
+        n_k = cdf.shape[1]
+        target = p * z
+        i = np.minimum((cdf < target[:, None]).sum(axis=1), n_k - 1)
+        rows = np.arange(len(i))
+        w_i = w[rows, i]
+        frac = np.clip((target - (cdf[rows, i] - w_i)) / np.maximum(w_i, 1e-300), 0.0, 1.0)
+        return self._log_k0 + self._dlog * (i - 0.5 + frac)
+
+
+def fit_calibration(
+    atlas: Atlas,
+    train_log: pd.DataFrame,
+    config: TwinConfig | None = None,
+    wear: WearModel | None = None,
+) -> TwinCalibration:
+    """Learn the prior over K and the temperature noise model from run-to-failure runs.
+
+    Each training run ends at failure, so its life ``N_i`` (events) is known and its K is
+    ``life_work / N_i``. The prior on log K is the Student-t predictive of a new pad given
+    the training pads (mean, spread, ``n - 1`` degrees of freedom). Along each run's
+    expected wear path the residuals of measured temperature against the atlas give the
+    bias and, by least squares of the squared residuals on the squared slope derivative,
+    the temperature and slope-sensor noise.
+
+    Args:
+        atlas: The twin's atlas.
+        train_log: Event log of at least two run-to-failure runs (columns ``run_id``,
+            ``event``, ``speed_kmh``, ``mass_kg``, ``slope_rad``, ``temp_c``; others ignored).
+        config: Floors and the number of events used for the noise fit.
+        wear: The atlas's wear model, when already built.
+    """
+    config = config or TwinConfig()
+    wear = wear or WearModel.from_atlas(atlas)
+    missing = [c for c in FIT_COLUMNS if c not in train_log.columns]
+    if missing:
+        raise ValueError(f"twin.fit: the training log lacks column(s) {missing}")
+    if len(train_log) == 0:
+        raise ValueError("twin.fit: the training log is empty")
+    codes, names = pd.factorize(train_log["run_id"], sort=False)
+    if len(names) < 2:
+        raise ValueError(
+            f"twin.fit: needs at least 2 run-to-failure runs to learn a prior over K, got"
+            f" {len(names)}"
+        )
+    event = train_log["event"].to_numpy()
+    if not np.issubdtype(event.dtype, np.integer) or event.min() < 0:
+        raise ValueError("twin.fit: column 'event' must hold integers >= 0")
+    life = np.zeros(len(names), dtype=np.int64)
+    np.maximum.at(life, codes, event.astype(np.int64))
+    life += 1  # each run ends at its failure event: life = last event index + 1
+    if life.min() < 2:
+        bad = names[int(np.argmin(life))]
+        raise ValueError(f"twin.fit: run {bad!r} has fewer than 2 events")
+    log_k = np.log(wear.life_work / life)
+    n = len(names)
+    scale = max(float(np.std(log_k, ddof=1)), config.min_prior_log_std) * math.sqrt(1 + 1 / n)
+
+    # Noise model along each run's expected path, on evenly strided events.
+    stride = max(1, math.ceil(len(train_log) / config.fit_max_events))
+    sel = np.arange(0, len(train_log), stride)
+    k_run = np.exp(log_k)[codes[sel]]
+    cols = {
+        c: train_log[c].to_numpy(dtype=np.float64)[sel]
+        for c in ("speed_kmh", "mass_kg", "slope_rad", "temp_c")
+    }
+    ok = np.logical_and.reduce([np.isfinite(v) for v in cols.values()])
+    if ok.sum() < 10:
+        raise ValueError("twin.fit: fewer than 10 training events with all channels finite")
+    layer = wear.layer_at_work(k_run[ok] * event[sel][ok])
+    t_atlas, dt = TemperatureTable(atlas).at_layers(
+        cols["speed_kmh"][ok] / 3.6, cols["mass_kg"][ok], cols["slope_rad"][ok], layer
+    )
+    r = cols["temp_c"][ok] - t_atlas
+    bias = float(r.mean())
+    r2, g2 = (r - bias) ** 2, dt**2
+    a, b = _nonneg_line(g2, r2)
+    return TwinCalibration(
+        k_log_mean=float(log_k.mean()),
+        k_log_scale=scale,
+        prior_dof=float(n - 1),
+        temp_bias_c=bias,
+        temp_sigma_c=max(math.sqrt(max(a, 0.0)), config.min_temp_sigma_c),
+        slope_sigma_rad=math.sqrt(b),
+        n_runs=n,
+    )
+
+
+def _nonneg_line(x: F64, y: F64) -> tuple[float, float]:
+    """Least-squares ``y ~ a + b x`` with ``b >= 0`` (a variance cannot be negative)."""
+    xm, ym = float(x.mean()), float(y.mean())
+    sxx = float(((x - xm) ** 2).sum())
+    b = float(((x - xm) * (y - ym)).sum()) / sxx if sxx > 0 else 0.0
+    if b <= 0:
+        return ym, 0.0
+    return ym - b * xm, b
