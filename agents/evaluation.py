@@ -17,6 +17,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agents.policies import Policy, RULThreshold
+from brake_env.env_config import CostWeights
 from brake_env.predictors import Oracle
 from brake_env.wrappers import RULObservation
 
@@ -38,10 +39,18 @@ class CostReport:
         planned_replacements: Replacements the policy asked for.
         failures_per_100_pads: Failures per 100 pads taken off (planned or failed); pads
             still installed at truncation are not counted (their fate is unknown).
+        failures_per_100_pads_by_regime: The same for ``id``, ``ood-slow``, ``ood-fast``
+            and all ``ood`` pads (NaN where no such pad was taken off).
         mean_unused_life_frac: Mean share of its life a pad still had when taken off (0 for
             a failure) [-].
         retired_rul_events: Events of life left at each removal (0 for failures).
+        retired_life_events: Life of each pad taken off, in the same order.
+        retired_regimes: Regime label of each pad taken off, in the same order.
+        episode_failures, episode_planned: Failures and planned replacements per episode,
+            so the cost under other weights follows without running again.
         ratio_to_oracle: ``cost`` over the oracle policy's cost on the same seeds, or None.
+        episode_ratio_to_oracle: The ratio per seed (each episode against the oracle's
+            episode with the same seed), for intervals.
         seconds: Wall time.
     """
 
@@ -54,26 +63,62 @@ class CostReport:
     failures: int
     planned_replacements: int
     failures_per_100_pads: float
+    failures_per_100_pads_by_regime: dict[str, float]
     mean_unused_life_frac: float
     retired_rul_events: tuple[int, ...] = field(repr=False)
+    retired_life_events: tuple[int, ...] = field(repr=False)
+    retired_regimes: tuple[str, ...] = field(repr=False)
+    episode_failures: tuple[int, ...] = field(repr=False)
+    episode_planned: tuple[int, ...] = field(repr=False)
+    episode_events: tuple[int, ...] = field(repr=False)
     ratio_to_oracle: float | None = None
+    episode_ratio_to_oracle: tuple[float, ...] | None = None
     seconds: float = 0.0
 
     def interval(self, level: float = 0.95) -> tuple[float, float]:
-        """Normal-approximation interval of the mean episode cost per 1000 events."""
-        x = np.asarray(self.episode_cost_per_1000_events)
-        if x.size < 2:
-            return (float(x.mean()), float(x.mean()))
-        from scipy.stats import t as student_t
+        """Student-t interval of the mean episode cost per 1000 events over seeds."""
+        return t_interval(self.episode_cost_per_1000_events, level)
 
-        half = student_t.ppf(0.5 + level / 2, x.size - 1) * x.std(ddof=1) / np.sqrt(x.size)
-        return (float(x.mean() - half), float(x.mean() + half))
+    def cost_with(self, weights: CostWeights) -> float:
+        """Cost per 1000 events under other weights (no revenue): same decisions, same pads."""
+        c = weights.planned_replacement * sum(self.episode_planned)
+        return 1000.0 * (c + weights.failure * sum(self.episode_failures)) / self.events
+
+    def episode_costs_with(self, weights: CostWeights) -> NDArray[np.float64]:
+        p, f = np.asarray(self.episode_planned), np.asarray(self.episode_failures)
+        cost = weights.planned_replacement * p + weights.failure * f
+        return 1000.0 * cost / np.asarray(self.episode_events)
 
     def to_dict(self) -> dict[str, Any]:
         d = asdict(self)
-        d.pop("retired_rul_events")
+        for k in ("retired_rul_events", "retired_life_events", "retired_regimes", "episode_events"):
+            d.pop(k)
         d["cost_per_1000_events_ci95"] = self.interval()
+        if self.episode_ratio_to_oracle is not None:
+            d["ratio_to_oracle_ci95"] = t_interval(self.episode_ratio_to_oracle)
         return d
+
+
+def ratio_per_seed(cost: NDArray[np.float64], oracle: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Cost ratio per episode; NaN where the oracle's episode cost nothing (a short episode
+    whose pads all outlived it), which has no ratio."""
+    out = np.full(cost.shape, np.nan)
+    np.divide(cost, oracle, out=out, where=oracle > 0)
+    return out
+
+
+def t_interval(values: Sequence[float], level: float = 0.95) -> tuple[float, float]:
+    """Student-t interval of the mean of the finite ``values`` (a point when there is one)."""
+    x = np.asarray(values, dtype=np.float64)
+    x = x[np.isfinite(x)]
+    if x.size == 0:
+        return (float("nan"), float("nan"))
+    if x.size < 2:
+        return (float(x.mean()), float(x.mean()))
+    from scipy.stats import t as student_t
+
+    half = student_t.ppf(0.5 + level / 2, x.size - 1) * x.std(ddof=1) / np.sqrt(x.size)
+    return (float(x.mean() - half), float(x.mean() + half))
 
 
 def run_episodes(
@@ -87,41 +132,103 @@ def run_episodes(
     if not seeds:
         raise ValueError("run_episodes: give at least one seed")
     t0 = time.perf_counter()
-    events = failures = planned = 0
     cost = 0.0
-    per_episode, retired = [], []
+    per_episode, retired, ep_fail, ep_plan, ep_events = [], [], [], [], []
     for seed in seeds:
         obs, info = env.reset(seed=int(seed))
-        ep_cost, ep_events = 0.0, len(info["events"])
+        c, n, f, p = 0.0, len(info["events"]), 0, 0
         done = False
         while not done:
             action, _ = policy.predict(obs, deterministic=deterministic)
             obs, reward, terminated, truncated, info = env.step(action)
             done = terminated or truncated
-            ep_cost -= float(reward)
-            ep_events += len(info["events"])
-            failures += info["failures"]
-            planned += int(info["replaced"])
+            c -= float(reward)
+            n += len(info["events"])
+            f += info["failures"]
+            p += int(info["replaced"])
             retired.extend(info["retired"])
-        cost += ep_cost
-        events += ep_events
-        per_episode.append(1000.0 * ep_cost / ep_events)
+        cost += c
+        per_episode.append(1000.0 * c / n)
+        ep_fail.append(f)
+        ep_plan.append(p)
+        ep_events.append(n)
+    return _report(
+        name,
+        tuple(int(s) for s in seeds),
+        cost,
+        tuple(per_episode),
+        [(int(a), int(b), str(c)) for a, b, c in retired],
+        tuple(ep_fail),
+        tuple(ep_plan),
+        tuple(ep_events),
+        time.perf_counter() - t0,
+    )
+
+
+def _report(
+    name: str,
+    seeds: tuple[int, ...],
+    cost: float,
+    per_episode: tuple[float, ...],
+    retired: Sequence[tuple[int, int, str]],
+    ep_fail: tuple[int, ...],
+    ep_plan: tuple[int, ...],
+    ep_events: tuple[int, ...],
+    seconds: float,
+) -> CostReport:
     left = np.array([r[0] for r in retired], dtype=np.int64)
-    life = np.array([r[1] for r in retired], dtype=np.float64)
-    n_pads = len(retired)
+    life = np.array([r[1] for r in retired], dtype=np.int64)
+    label = np.array([r[2] for r in retired], dtype=object)
+    failed = left == 0
+    masks = {r: label == r for r in ("id", "ood-slow", "ood-fast")}
+    masks["ood"] = masks["ood-slow"] | masks["ood-fast"]
+    by_regime = {
+        regime: 100.0 * float(failed[m].mean()) if m.any() else float("nan")
+        for regime, m in masks.items()
+    }
     return CostReport(
         name=name,
-        seeds=tuple(int(s) for s in seeds),
-        events=events,
+        seeds=seeds,
+        events=sum(ep_events),
         cost=cost,
-        cost_per_1000_events=1000.0 * cost / events,
-        episode_cost_per_1000_events=tuple(per_episode),
-        failures=failures,
-        planned_replacements=planned,
-        failures_per_100_pads=100.0 * failures / n_pads if n_pads else float("nan"),
-        mean_unused_life_frac=float((left / life).mean()) if n_pads else float("nan"),
+        cost_per_1000_events=1000.0 * cost / sum(ep_events),
+        episode_cost_per_1000_events=per_episode,
+        failures=sum(ep_fail),
+        planned_replacements=sum(ep_plan),
+        failures_per_100_pads=100.0 * sum(ep_fail) / len(retired) if retired else float("nan"),
+        failures_per_100_pads_by_regime=by_regime,
+        mean_unused_life_frac=float((left / life).mean()) if retired else float("nan"),
         retired_rul_events=tuple(int(x) for x in left),
-        seconds=time.perf_counter() - t0,
+        retired_life_events=tuple(int(x) for x in life),
+        retired_regimes=tuple(str(x) for x in label),
+        episode_failures=ep_fail,
+        episode_planned=ep_plan,
+        episode_events=ep_events,
+        seconds=seconds,
+    )
+
+
+def merge_reports(reports: Sequence[CostReport]) -> CostReport:
+    """One report over the episodes of several (the same policy on other seeds)."""
+    if not reports:
+        raise ValueError("merge_reports: nothing to merge")
+    retired = [
+        (a, b, c)
+        for r in reports
+        for a, b, c in zip(
+            r.retired_rul_events, r.retired_life_events, r.retired_regimes, strict=True
+        )
+    ]
+    return _report(
+        reports[0].name,
+        tuple(s for r in reports for s in r.seeds),
+        sum(r.cost for r in reports),
+        tuple(x for r in reports for x in r.episode_cost_per_1000_events),
+        retired,
+        tuple(x for r in reports for x in r.episode_failures),
+        tuple(x for r in reports for x in r.episode_planned),
+        tuple(x for r in reports for x in r.episode_events),
+        sum(r.seconds for r in reports),
     )
 
 
@@ -158,15 +265,24 @@ def compare_policies(
         reports[name] = run_episodes(policy, env, seeds, name)
         if progress:
             progress(name)
-    base = reports["oracle"].cost
-    return {
-        name: _with_ratio(r, r.cost / base if base > 0 else float("nan"))
-        for name, r in reports.items()
-    }
+    return with_oracle_ratios(reports, reports["oracle"])
 
 
-def _with_ratio(report: CostReport, ratio: float) -> CostReport:
-    return replace(report, ratio_to_oracle=ratio)
+def with_oracle_ratios(
+    reports: Mapping[str, CostReport], oracle: CostReport
+) -> dict[str, CostReport]:
+    """Each report with its cost ratio to ``oracle`` (which must have run the same seeds)."""
+    base = np.asarray(oracle.episode_cost_per_1000_events)
+    out = {}
+    for name, r in reports.items():
+        if r.seeds != oracle.seeds:
+            raise ValueError(f"{name} ran seeds {r.seeds}, the oracle {oracle.seeds}")
+        per_seed = ratio_per_seed(np.asarray(r.episode_cost_per_1000_events), base)
+        ratio = r.cost / oracle.cost if oracle.cost > 0 else float("nan")
+        out[name] = replace(
+            r, ratio_to_oracle=ratio, episode_ratio_to_oracle=tuple(per_seed.tolist())
+        )
+    return out
 
 
 def summary_rows(reports: Mapping[str, CostReport]) -> list[list[str]]:

@@ -107,8 +107,9 @@ class BrakeWearEnv(gym.Env[NDArray[np.float32], np.int64]):
     ``event`` is the index since installation; ground truth ``volume_frac``, ``wear_coeff``
     and ``rul_events`` included), ``costs`` (cost terms by name), ``replaced``,
     ``failures``, ``pads_retired``, ``retired`` (for each pad taken off in the step: events
-    of life it had left, 0 for a failure, and its life) and ``truth`` (true volume, K, RUL,
-    life and regime of the installed pad; for analysis only, never for a policy).
+    of life it had left, 0 for a failure, its life and its regime) and ``truth`` (true
+    volume, K, RUL, life and regime of the installed pad; for analysis only, never for a
+    policy).
 
     ## Arguments
 

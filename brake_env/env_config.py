@@ -124,6 +124,12 @@ class EnvConfig:
         cache_pads: Keep the last this many simulated pads (~7.5 MB each at the default K)
             so that replaying a seed does not simulate its pads again; 0 keeps none. A pure
             speed option: the pads are the same either way.
+        pad_pool: Draw every new pad from a fixed pool of this many pads (made from
+            ``pad_pool_seed``, shared by all envs of the process with the same settings),
+            so each is simulated, and a precomputed predictor run over it, once. For
+            training agents on a finite set of pads; 0 (default) draws a fresh pad each
+            time.
+        pad_pool_seed: Seed of the pool's pads.
     """
 
     decision_interval: int = 500
@@ -138,12 +144,16 @@ class EnvConfig:
     preset: str = "hot-duty"
     interpolate_layers: bool = False
     cache_pads: int = 0
+    pad_pool: int = 0
+    pad_pool_seed: int = 0
 
     def __post_init__(self) -> None:
         for name, lo, hi in (
             ("decision_interval", 1, MAX_DECISION_INTERVAL),
             ("episode_events", 2, 10**9),
             ("cache_pads", 0, 10_000),
+            ("pad_pool", 0, 10_000),
+            ("pad_pool_seed", 0, 2**63 - 1),
         ):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, int | np.integer) or not lo <= v <= hi:

@@ -75,6 +75,28 @@ def simulate_pad(
     return PadLife(wear_coeff, label, measured, t.volume_frac, after)
 
 
+_POOL: dict[tuple[Any, ...], PadLife] = {}
+
+
+def _pool_pad(atlas: Atlas, config: EnvConfig, index: int) -> PadLife:
+    """Pad ``index`` of the config's pool, simulated on first use and kept for the process."""
+    key = (
+        atlas.content_hash,
+        config.pad_regime,
+        config.noise,
+        config.interpolate_layers,
+        config.pad_pool_seed,
+        config.pad_pool,
+        index,
+    )
+    if key not in _POOL:
+        rng = np.random.default_rng([config.pad_pool_seed, config.pad_pool])
+        draws = [(*config.pad_regime.draw(rng), int(rng.integers(2**63))) for _ in range(index + 1)]
+        k, label, entropy = draws[index]
+        _POOL[key] = simulate_pad(atlas, config, k, label, np.random.SeedSequence(entropy))
+    return _POOL[key]
+
+
 class PadService:
     """Installs pads, serves braking events and counts the cost terms of one vehicle.
 
@@ -131,6 +153,12 @@ class PadService:
 
     # ------------------------------------------------------------------ internals
     def _install(self) -> None:
+        if self.config.pad_pool:
+            self.pad = _pool_pad(
+                self.atlas, self.config, int(self.rng.integers(self.config.pad_pool))
+            )
+            self.pos = 0
+            return
         k, label = self.regime.draw(self.rng)
         entropy = int(self.rng.integers(2**63))
         pad = self._cache.get((k, entropy))
@@ -146,10 +174,10 @@ class PadService:
 
     def _serve(self, n: int, replaced: bool) -> dict[str, Any]:
         costs = dict.fromkeys(COST_TERMS, 0.0)
-        retired = []  # (events of life left, life) of each pad taken off in this step
+        retired = []  # (events of life left, life, regime) of each pad taken off in the step
         if replaced:
             assert self.pad is not None
-            retired.append((self.pad.n_events - self.pos, self.pad.n_events))
+            retired.append((self.pad.n_events - self.pos, self.pad.n_events, self.pad.label))
             costs.update(self._planned)
             self._install()
         segments = []  # (pad, first event, last event + 1) in service order
@@ -159,7 +187,7 @@ class PadService:
             take = min(left, self.pad.n_events - self.pos)
             if take == 0:  # the next event needs a pad that has no life left: failure
                 failures += 1
-                retired.append((0, self.pad.n_events))
+                retired.append((0, self.pad.n_events, self.pad.label))
                 for key, value in self._failure.items():
                     costs[key] += value
                 self._install()
@@ -177,7 +205,7 @@ class PadService:
         costs: dict[str, float],
         replaced: bool,
         failures: int,
-        retired: list[tuple[int, int]],
+        retired: list[tuple[int, int, str]],
     ) -> dict[str, Any]:
         pad = self.pad
         assert pad is not None

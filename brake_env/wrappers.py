@@ -39,6 +39,8 @@ class RULObservation(gym.ObservationWrapper[NDArray[np.float32], Any, NDArray[np
             causal predictor that gives the same estimates whatever the batch sizes (the
             protocol's contract; tested for every predictor). Needs a bare BrakeWear-v0
             underneath.
+        estimate_cache: The per-pad store of precomputed estimates, to share between
+            wrappers of the same (fitted) predictor; default a new one.
     """
 
     def __init__(
@@ -47,6 +49,7 @@ class RULObservation(gym.ObservationWrapper[NDArray[np.float32], Any, NDArray[np
         predictor: RULPredictor,
         fields: tuple[str, ...] = ("rul_mean",),
         precompute: bool = False,
+        estimate_cache: WeakKeyDictionary[PadLife, RULEstimate] | None = None,
     ) -> None:
         super().__init__(env)
         bad = [f for f in fields if f not in ESTIMATE_FIELDS]
@@ -67,7 +70,9 @@ class RULObservation(gym.ObservationWrapper[NDArray[np.float32], Any, NDArray[np
         )
         self._estimate = np.zeros(n, dtype=np.float32)
         self.precompute = precompute
-        self._lives: WeakKeyDictionary[PadLife, RULEstimate] = WeakKeyDictionary()
+        self._lives: WeakKeyDictionary[PadLife, RULEstimate] = (
+            WeakKeyDictionary() if estimate_cache is None else estimate_cache
+        )
 
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
