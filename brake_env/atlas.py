@@ -24,7 +24,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from brake_env.params import BrakeModel
-from brake_env.physics import critical_volume, simulate_events
+from brake_env.physics import EventModifier, critical_volume, simulate_events
 
 F64 = NDArray[np.float64]
 FORMAT_VERSION = 2
@@ -112,12 +112,17 @@ class Atlas:
     # ---------------------------------------------------------------- construction
     @classmethod
     def build(
-        cls, spec: AtlasSpec | None = None, progress: Callable[[int], object] | None = None
+        cls,
+        spec: AtlasSpec | None = None,
+        progress: Callable[[int], object] | None = None,
+        modifier: EventModifier | None = None,
     ) -> Atlas:
         """Evaluate the physics on every grid node of every layer, vectorised.
 
         Layers go in chunks of ``_LAYERS_PER_CHUNK`` (cache-sized arrays); ``progress`` is
-        called with the number of layers finished after each chunk.
+        called with the number of layers finished after each chunk. ``modifier`` (optional,
+        ``sim2real`` effects) changes the in-event physics; the spec and its hash do not
+        record it, so such an atlas is for in-memory use and must not enter the cache.
         """
         spec = spec or AtlasSpec()
         t0 = time.perf_counter()
@@ -125,7 +130,7 @@ class Atlas:
         speed = np.linspace(*env.speed_kmh, spec.n_speed) / 3.6
         mass = np.linspace(*env.mass_kg, spec.n_mass)
         slope = np.radians(np.linspace(*env.slope_deg, spec.n_slope))
-        v_crit = critical_volume(spec.model)
+        v_crit = critical_volume(spec.model, modifier=modifier)
         v_end = _end_of_life(v_crit, spec.model)
         n_layers = int(np.floor((1.0 - v_end) / spec.layer_step + 1e-9)) + 1
         volumes = (1.0 - spec.layer_step * np.arange(n_layers)).astype(np.float64)
@@ -141,6 +146,7 @@ class Atlas:
                 slope[None, None, None, :],
                 volumes[lo:hi, None, None, None],
                 spec.model,
+                modifier=modifier,
             )
             if not resp.stopped.all():
                 bad = tuple(int(x) for x in np.argwhere(~resp.stopped)[0] + [lo, 0, 0, 0])

@@ -19,6 +19,7 @@ cannot stop (the fade runs away): it is a brake failure.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -58,6 +59,34 @@ class EventResponse:
     friction_work_j: F64
 
 
+class EventModifier(Protocol):
+    """Optional in-event hook: multipliers on the nominal laws (used by ``sim2real`` effects).
+
+    Each method gets the state at an RK4 stage (arrays over the batch) and returns a factor
+    that broadcasts against it. Factors of exactly 1.0 leave the physics bit-identical.
+    Arguments: brake temperature [deg C], sliding speed at the effective radius [m/s], line
+    pressure [Pa], remaining pad volume fraction [-].
+    """
+
+    def friction_factor(
+        self, temp_c: F64, slide_speed_mps: F64, pressure_pa: float, volume_frac: F64
+    ) -> F64 | float:
+        """Multiplier on the friction coefficient mu(T)."""
+        ...
+
+    def heat_fraction(
+        self, temp_c: F64, slide_speed_mps: F64, pressure_pa: float, volume_frac: F64
+    ) -> F64 | float:
+        """Share of the friction heat that enters the brake's lumped thermal mass."""
+        ...
+
+    def wear_factor(
+        self, temp_c: F64, slide_speed_mps: F64, pressure_pa: float, volume_frac: F64
+    ) -> F64 | float:
+        """Multiplier on the Archard wear rate."""
+        ...
+
+
 def thermal_mass(volume_frac: ArrayLike, model: BrakeModel) -> F64:
     """Heat capacity of one brake [J/K] at remaining pad volume fraction ``volume_frac``."""
     b = model.brake
@@ -78,6 +107,7 @@ def simulate_events(
     volume_frac: ArrayLike,
     model: BrakeModel | None = None,
     start_temp_c: ArrayLike | None = None,
+    modifier: EventModifier | None = None,
 ) -> EventResponse:
     """Integrate a batch of braking events until standstill (broadcasting inputs).
 
@@ -88,6 +118,8 @@ def simulate_events(
         volume_frac: Remaining pad volume as a fraction of a fresh pad [-], in (0, 1].
         model: Physical parameters; the default calibration if omitted.
         start_temp_c: Brake temperature at onset [deg C]; ``model.brake.start_temp_c`` if omitted.
+        modifier: Optional in-event changes to friction, heat and wear (``sim2real``
+            effects); None (the default) runs the nominal physics unchanged.
 
     Returns:
         The per-event response; fields of events that could not stop are NaN.
@@ -124,6 +156,10 @@ def simulate_events(
         temp = y[_T]
         v = v0 * (1.0 - s)
         f_brake = friction(temp, model.friction) * f_per_mu
+        if modifier is not None:
+            v_slide = v * slide_ratio
+            p_line = brk.line_pressure_pa
+            f_brake = f_brake * modifier.friction_factor(temp, v_slide, p_line, vol)
         a = f_brake * inv_m + a_ext
         failed[:] |= a <= 0.0
         dt_ds = v0 / np.maximum(a, 1e-9)  # dt/ds = v0 / a; clipped where failure is flagged
@@ -133,6 +169,9 @@ def simulate_events(
         out[_TIME] = dt_ds
         out[_DIST] = v * dt_ds
         out[_WEAR] = wear_force * slide_ratio * v / hardness_mpa(temp, model.hardness) * dt_ds
+        if modifier is not None:
+            out[_T] *= modifier.heat_fraction(temp, v_slide, p_line, vol)
+            out[_WEAR] *= modifier.wear_factor(temp, v_slide, p_line, vol)
         out[_TINT] = temp * dt_ds
         out[_WORK] = power * dt_ds
         return out
@@ -166,29 +205,37 @@ def simulate_events(
 
 
 def can_stop(
-    volume_frac: float, speed_mps: float, mass_kg: float, slope_rad: float, model: BrakeModel
+    volume_frac: float,
+    speed_mps: float,
+    mass_kg: float,
+    slope_rad: float,
+    model: BrakeModel,
+    modifier: EventModifier | None = None,
 ) -> bool:
     """Whether one event at these conditions stops at pad volume fraction ``volume_frac``."""
-    r = simulate_events(speed_mps, mass_kg, slope_rad, volume_frac, model)
+    r = simulate_events(speed_mps, mass_kg, slope_rad, volume_frac, model, modifier=modifier)
     return bool(r.stopped)
 
 
-def critical_volume(model: BrakeModel | None = None, tol: float = 1e-6) -> float:
+def critical_volume(
+    model: BrakeModel | None = None, tol: float = 1e-6, modifier: EventModifier | None = None
+) -> float:
     """Pad volume fraction below which the envelope's most severe event can no longer stop.
 
     Found by bisection on the physics (not by atlas layer steps). Returns 0.0 if even an
-    almost fully worn pad stops it, and raises if a fresh pad cannot.
+    almost fully worn pad stops it, and raises if a fresh pad cannot. ``modifier`` as in
+    :func:`simulate_events`.
     """
     model = model or BrakeModel()
     v, m, th = model.envelope.severe_event
     lo, hi = 1e-4, 1.0  # lo: may fail, hi: must stop
-    if not can_stop(hi, v, m, th, model):
+    if not can_stop(hi, v, m, th, model, modifier):
         raise ValueError("a fresh brake cannot stop the most severe event: check the calibration")
-    if can_stop(lo, v, m, th, model):
+    if can_stop(lo, v, m, th, model, modifier):
         return 0.0
     while hi - lo > tol:
         mid = 0.5 * (lo + hi)
-        if can_stop(mid, v, m, th, model):
+        if can_stop(mid, v, m, th, model, modifier):
             hi = mid
         else:
             lo = mid
