@@ -144,9 +144,11 @@ def _render_validation(r: dict[str, Any]) -> tuple[str, str]:
     """(terminal text, Markdown) of a validation result."""
     labels = r["labels"]
     short = [lab if lab != NONE else "none" for lab in labels]
-    rows = [["expected \\ answer", *short]]
-    for e, lab in zip(labels, short, strict=True):
-        rows.append([lab, *[str(r["confusion"][e][a]) for a in labels]])
+    rows = [["withheld \\ answer", *short]]
+    for e in r["rows"]:
+        rows.append(
+            [e if e != NONE else "none (control)", *[str(r["confusion"][e][a]) for a in labels]]
+        )
     conf = table(rows)
     rows = [
         [
@@ -193,17 +195,18 @@ def _validation_figures(r: dict[str, Any], out: Path) -> list[Path]:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    labels = r["labels"]
-    m = np.array([[r["confusion"][e][a] for a in labels] for e in labels], dtype=float)
+    labels, row_labels = r["labels"], r["rows"]
+    m = np.array([[r["confusion"][e][a] for a in labels] for e in row_labels], dtype=float)
     short = [lab if lab != NONE else "none" for lab in labels]
+    short_rows = [lab if lab != NONE else "none (control)" for lab in row_labels]
     fig, ax = plt.subplots(figsize=(8, 7))
     ax.imshow(m / np.maximum(m.sum(axis=1, keepdims=True), 1), cmap="Blues", vmin=0, vmax=1)
-    for i in range(len(labels)):
+    for i in range(len(row_labels)):
         for j in range(len(labels)):
             if m[i, j]:
                 ax.text(j, i, f"{m[i, j]:.0f}", ha="center", va="center")
     ax.set_xticks(range(len(labels)), short, rotation=45, ha="right")
-    ax.set_yticks(range(len(labels)), short)
+    ax.set_yticks(range(len(row_labels)), short_rows)
     ax.set_xlabel("diagnosis")
     ax.set_ylabel("withheld effect")
     ax.set_title("Attribution of withheld effects")

@@ -553,17 +553,15 @@ def diagnose(
 
 
 def _offset(s: _Scored, nominal: ReplayModel, rows: I64) -> F64 | None:
-    """Per row, the winner's change of the temperature reading (sensor effects) or of the
-    start temperature (between-events effects); None for in-event effects."""
+    """Per row, the winner's modelled change of the temperature reading (sensor and
+    between-events effects); None for in-event effects."""
     rm, d = s.model, s.model.data
     ok = d.ok[rows]
     out = np.zeros(rows.size)
     r = rows[ok]
     v = rm.volume(d.u[r], s.k[d.run[r]])
-    if rm.kind == "sensor":
+    if rm.kind in ("sensor", "between-events"):
         out[ok] = rm.respond(r, v)["temp_mean_c"] - nominal.respond(r, v)["temp_mean_c"]
-    elif rm.kind == "between-events":
-        out[ok] = rm._start_temp(r, v) - rm.base_t0
     else:
         return None
     return out

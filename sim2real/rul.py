@@ -1,15 +1,15 @@
 """The twin's RUL error on held-out runs, without and with a fitted effect (issue 6, quantify).
 
 "The twin's model includes the effect" means: for an in-event effect, a twin built on an
-atlas made with the effect's physics; for a between-events effect, on an atlas whose start
-temperature is the mean start temperature the effect gives; for a sensor effect, the
-nominal twin fed temperatures with the sensor's modelled offset removed. Uses
+atlas made with the effect's physics; for a sensor or between-events effect, the nominal
+twin fed temperatures with the effect's modelled change of the reading removed (for thermal
+carry-over: the temperature an event would have shown had it started at the duty-cycle
+level; the wear the carry-over adds is left to the twin's online K identification). Uses
 ``twin.DigitalTwin`` when that package provides it; returns None otherwise.
 """
 
 from __future__ import annotations
 
-import dataclasses
 import importlib
 from collections.abc import Callable
 from typing import Any
@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from brake_env.atlas import Atlas, AtlasSpec
+from brake_env.atlas import Atlas
 from brake_env.predictors import predict_log
 from sim2real.effects import Effect
 from sim2real.truth import truth_atlas
@@ -47,7 +47,7 @@ def rul_scorer(
     The callback takes (effect or None, held-out log, its offset, calibration log, its
     offset): the twin is fitted on the calibration runs and scored on the held-out runs.
     ``offset`` is, per row of a log, the effect's modelled change of the temperature
-    reading (sensor effects) or of the start temperature (between-events effects).
+    reading (sensor and between-events effects).
     """
     cls = twin_class()
 
@@ -65,20 +65,11 @@ def rul_scorer(
         use_atlas, use_log = atlas, log
         if effect is not None and effect.kind == "in-event":
             use_atlas = truth_atlas(atlas.spec, [effect])
-        elif effect is not None and effect.kind == "between-events" and offset is not None:
-            rise = float(np.nanmean(offset))
-            brake = dataclasses.replace(
-                atlas.spec.model.brake, start_temp_c=atlas.spec.model.brake.start_temp_c + rise
-            )
-            spec = AtlasSpec(
-                model=dataclasses.replace(atlas.spec.model, brake=brake),
-                n_speed=atlas.spec.n_speed,
-                n_mass=atlas.spec.n_mass,
-                n_slope=atlas.spec.n_slope,
-                layer_step=atlas.spec.layer_step,
-            )
-            use_atlas = truth_atlas(spec, [])
-        elif effect is not None and effect.kind == "sensor" and offset is not None:
+        elif (
+            effect is not None
+            and effect.kind in ("sensor", "between-events")
+            and offset is not None
+        ):
             use_log = log.copy()
             use_log["temp_c"] = log["temp_c"].to_numpy() - offset
             if train_offset is not None:

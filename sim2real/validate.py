@@ -90,7 +90,7 @@ def cases(spec: ValidationSpec, seed: int) -> list[tuple[str, str, list[Effect],
                 del i
     for _ in range(spec.n_controls):
         out.append(("control", NONE, [], seed * 1000 + len(out)))
-    for _ in range(spec.seeds_mid):
+    for _ in range(spec.n_out_of_library):
         out.append(
             (
                 "pad_glazing:g=0.15 (not a candidate)",
@@ -147,8 +147,10 @@ def validate_gap(
         }
         rul_q = q.get("rul") or {}
         b, af = rul_q.get("before"), rul_q.get("after")
+        if b and "rmse" in b:
+            rec["rul_before"] = b["rmse"]
         if b and af and "rmse" in b and "rmse" in af:
-            rec["rul_before"], rec["rul_after"] = b["rmse"], af["rmse"]
+            rec["rul_after"] = af["rmse"]
             rec["rul_shrink"] = 1.0 - af["rmse"] / max(b["rmse"], 1e-9)
         records.append(rec)
         if progress:
@@ -162,9 +164,14 @@ def summarise(records: list[dict[str, Any]]) -> dict[str, Any]:
         {r["expected"] for r in records} | {r["answer"] for r in records},
         key=lambda x: (x == NONE, x),
     )
-    conf = {e: {a: 0 for a in labels} for e in labels}
+    # Rows: the withheld effect (controls "none", the out-of-library effect by its name).
+    rows = [lab for lab in labels if lab != NONE]
+    if any("not a candidate" in r["case"] for r in records):
+        rows.append(_OOL)
+    rows.append(NONE)
+    conf = {e: {a: 0 for a in labels} for e in rows}
     for r in records:
-        conf[r["expected"]][r["answer"]] += 1
+        conf[_OOL if "not a candidate" in r["case"] else r["expected"]][r["answer"]] += 1
     lib = [r for r in records if r["expected"] != NONE and _is_mid(r["case"])]
     ctrl = [r for r in records if r["case"] == "control"]
     ool = [r for r in records if "not a candidate" in r["case"]]
@@ -213,7 +220,10 @@ def summarise(records: list[dict[str, Any]]) -> dict[str, Any]:
     }
     for t in targets.values():
         t["met"] = t["value"] is not None and t["value"] >= t["target"]
-    return {"labels": labels, "confusion": conf, "targets": targets}
+    return {"labels": labels, "rows": rows, "confusion": conf, "targets": targets}
+
+
+_OOL = "pad_glazing (not a candidate)"
 
 
 def _is_mid(case: str) -> bool:

@@ -19,6 +19,20 @@ def test_simulate_dataset_example(tmp_path) -> None:
     assert (tmp_path / "volume.png").exists() and (tmp_path / "train.parquet").exists()
 
 
+def test_train_and_compare_example(tmp_path) -> None:
+    result = load("train_and_compare").main(
+        str(tmp_path),
+        timesteps=64,
+        k_mean=1e-5,
+        episode_events=30_000,
+        pad_pool=2,
+        predictors=("none", "oracle"),
+        agent="oracle",  # the twin's version takes minutes; the compare tests cover it
+    )
+    assert {"none/threshold", "oracle/ppo", "oracle"} <= set(result["policies"])
+    assert (tmp_path / "costs.json").exists() and (tmp_path / "figures/cost_ratio.png").exists()
+
+
 def test_every_example_has_a_test() -> None:
-    tested = {"simulate_dataset"}
+    tested = {"simulate_dataset", "train_and_compare"}
     assert {p.stem for p in EXAMPLES.glob("*.py")} == tested
