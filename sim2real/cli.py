@@ -230,6 +230,7 @@ def _validation_figures(r: dict[str, Any], out: Path) -> list[Path]:
     axes[1].barh(y2 - 0.2, [c["rul_before"] for c in rul], 0.4, label="nominal twin")
     axes[1].barh(y2 + 0.2, [c["rul_after"] for c in rul], 0.4, label="twin with the effect")
     axes[1].set_yticks(y2, [c["case"] for c in rul], fontsize=7)
+    axes[1].set_xscale("log")
     axes[1].set_xlabel("twin RUL RMSE on held-out runs [events]")
     axes[1].legend(fontsize=8)
     fig.tight_layout()

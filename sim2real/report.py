@@ -75,7 +75,8 @@ def text_report(r: DiagnosisResult) -> str:
         lines.append(f"  skipped {name}: {why}")
     lines.append("")
     lines.append(
-        "held-out gap (structured gap and residual RMS, sensor-noise units, 90% intervals):"
+        "held-out gap (structured gap and residual RMS, sensor-noise units;"
+        " 90% jackknife intervals over runs):"
     )
     rows = [["channel", "gap before", "gap after", "shrink", "RMS before", "RMS after"]]
     for ch in CHANNELS:

@@ -30,7 +30,6 @@ FAST = DiagnosisConfig(
     calibration_events_per_run=800,
     score_events_per_run=4000,
     grid_points=4,
-    bootstrap=50,
 )
 
 
