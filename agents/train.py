@@ -130,14 +130,13 @@ def train_agent(
     from stable_baselines3.common.callbacks import CallbackList, CheckpointCallback, EvalCallback
     from stable_baselines3.common.monitor import Monitor
     from stable_baselines3.common.running_mean_std import RunningMeanStd
-
-    # A tiny MLP gains nothing from threads; on 2 cores they only contend with the envs.
-    torch.set_num_threads(int(hp_threads(hyperparams, predictor.name, algo)))
     from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
 
     if timesteps < 1:
         raise ValueError(f"timesteps must be >= 1, got {timesteps}")
     hp = dict(hyperparams if hyperparams is not None else load_hyperparams(predictor.name, algo))
+    # A tiny MLP gains nothing from threads; on 2 cores they only contend with the envs.
+    torch.set_num_threads(int(hp.get("torch_threads", 1)))
     n_envs = int(hp.get("n_envs", 1))
     norm_obs, norm_reward = bool(hp.get("norm_obs", True)), bool(hp.get("norm_reward", True))
     policy_kwargs = {"net_arch": list(hp.get("net_arch", [64, 64]))}
@@ -223,11 +222,6 @@ def train_agent(
     venv.close()
     eval_venv.close()
     return result
-
-
-def hp_threads(hyperparams: dict[str, Any] | None, predictor: str, algo: str) -> int:
-    hp = hyperparams if hyperparams is not None else load_hyperparams(predictor, algo)
-    return int(hp.get("torch_threads", 1))
 
 
 def _bias_first_actions(model: Any, replace_prob: float) -> None:

@@ -102,12 +102,9 @@ def cmd_atlas(args: argparse.Namespace) -> dict[str, Any]:
 
 
 # ---------------------------------------------------------------------- simulate
-def cmd_simulate(args: argparse.Namespace) -> dict[str, Any]:
-    from brake_env.plots import plot_trace, plot_volume_trajectories
-
-    out = Path(args.out)
-    atlas = load_atlas(args)
-    spec = DatasetSpec(
+def dataset_spec(args: argparse.Namespace) -> DatasetSpec:
+    """The DatasetSpec of the ``--n-*``, ``--k-*`` and ``--interpolate-layers`` options."""
+    return DatasetSpec(
         n_train=args.n_train,
         n_id=args.n_id,
         n_ood_slow=args.n_ood_slow,
@@ -116,6 +113,14 @@ def cmd_simulate(args: argparse.Namespace) -> dict[str, Any]:
         k_std=args.k_std,
         interpolate_layers=args.interpolate_layers,
     )
+
+
+def cmd_simulate(args: argparse.Namespace) -> dict[str, Any]:
+    from brake_env.plots import plot_trace, plot_volume_trajectories
+
+    out = Path(args.out)
+    atlas = load_atlas(args)
+    spec = dataset_spec(args)
     with tqdm(total=atlas.n_layers, desc="simulate", unit="layer", disable=args.quiet) as bar:
         ds = make_dataset(atlas, spec, args.seed, progress=bar.update)
     t0 = time.perf_counter()

@@ -18,7 +18,15 @@ import numpy as np
 from tqdm import tqdm
 
 from brake_env.atlas import Atlas
-from brake_env.cli import DemoContext, add_common_args, cmd_simulate, load_atlas, table, write_json
+from brake_env.cli import (
+    DemoContext,
+    add_common_args,
+    cmd_simulate,
+    dataset_spec,
+    load_atlas,
+    table,
+    write_json,
+)
 from brake_env.datasets import SPLITS, DatasetSpec, write_dataset
 from brake_env.schema import read_event_log
 from sim2real.diagnose import NONE, DiagnosisConfig, diagnose
@@ -48,17 +56,7 @@ def cmd_simulate_truth(args: argparse.Namespace) -> dict[str, Any]:
         raise ValueError("--interpolate-layers is not supported together with --effect")
     out = Path(args.out)
     atlas = load_atlas(args)
-    spec = TruthSpec(
-        DatasetSpec(
-            n_train=args.n_train,
-            n_id=args.n_id,
-            n_ood_slow=args.n_ood_slow,
-            n_ood_fast=args.n_ood_fast,
-            k_mean=args.k_mean,
-            k_std=args.k_std,
-        ),
-        mean_gap_s=args.mean_gap_s,
-    )
+    spec = TruthSpec(dataset_spec(args), mean_gap_s=args.mean_gap_s)
     t0 = time.perf_counter()
     with tqdm(desc="truth simulation", disable=args.quiet, delay=0.5) as bar:
         logs = simulate_truth(atlas.spec, effects, spec, args.seed, progress=bar.update)
