@@ -103,7 +103,8 @@ def cmd_atlas(args: argparse.Namespace) -> dict[str, Any]:
 
 # ---------------------------------------------------------------------- simulate
 def dataset_spec(args: argparse.Namespace) -> DatasetSpec:
-    """The DatasetSpec of the ``--n-*``, ``--k-*`` and ``--interpolate-layers`` options."""
+    """The DatasetSpec of the ``--n-*``, ``--k-*``, ``--interpolate-layers`` and
+    ``--route-block-events`` options."""
     return DatasetSpec(
         n_train=args.n_train,
         n_id=args.n_id,
@@ -112,6 +113,7 @@ def dataset_spec(args: argparse.Namespace) -> DatasetSpec:
         k_mean=args.k_mean,
         k_std=args.k_std,
         interpolate_layers=args.interpolate_layers,
+        route_block_events=args.route_block_events,
     )
 
 
@@ -286,6 +288,12 @@ def build_parser() -> argparse.ArgumentParser:
             "--interpolate-layers",
             action="store_true",
             help="blend adjacent atlas layers by volume (paper footnote 1)",
+        )
+        sp.add_argument(
+            "--route-block-events",
+            type=_nonneg_int,
+            default=0,
+            help="0: independent operating conditions; N: haul-road and pit blocks of N events",
         )
 
     a = sub.add_parser(

@@ -19,7 +19,13 @@ import pandas as pd
 from brake_env._validate import check_positive
 from brake_env.atlas import Atlas
 from brake_env.schema import SENSOR_CHANNELS, write_event_log
-from brake_env.simulator import F64, SensorNoise, Trajectory, simulate_runs
+from brake_env.simulator import (
+    F64,
+    AlternatingRoutes,
+    SensorNoise,
+    Trajectory,
+    simulate_runs,
+)
 
 SPLITS = ("train", "id", "ood")
 
@@ -38,6 +44,8 @@ class DatasetSpec:
         ood_shift_sigma: OOD mean shift in units of k_std [-].
         noise: Sensor noise added to the logged channels.
         interpolate_layers: Blend adjacent atlas layers by volume (paper footnote 1).
+        route_block_events: 0 draws each event's conditions independently (the paper);
+            N > 0 alternates haul-road and pit blocks of N events (``AlternatingRoutes``).
     """
 
     n_train: int = 10
@@ -49,6 +57,7 @@ class DatasetSpec:
     ood_shift_sigma: float = 6.0
     noise: SensorNoise = field(default_factory=SensorNoise)
     interpolate_layers: bool = False
+    route_block_events: int = 0
 
     def __post_init__(self) -> None:
         for name in ("n_train", "n_id", "n_ood_slow", "n_ood_fast"):
@@ -58,8 +67,19 @@ class DatasetSpec:
         if self.n_train + self.n_id + self.n_ood_slow + self.n_ood_fast == 0:
             raise ValueError("DatasetSpec: no runs to simulate (all run counts are 0)")
         check_positive(self, "k_mean", "k_std")
+        if not isinstance(self.route_block_events, int) or self.route_block_events < 0:
+            raise ValueError(
+                "DatasetSpec.route_block_events must be an int >= 0, got"
+                f" {self.route_block_events!r}"
+            )
         if self.k_mean - (self.ood_shift_sigma + 3.0) * self.k_std <= 0 and self.n_ood_slow:
             raise ValueError("DatasetSpec: the slow OOD mean is too close to K = 0")
+
+    @property
+    def duty(self) -> AlternatingRoutes | None:
+        """The duty cycle of the runs (None: independent conditions)."""
+        n = self.route_block_events
+        return AlternatingRoutes(n) if n else None
 
     def plan(self, rng: np.random.Generator) -> list[tuple[str, str, float]]:
         """(split, run_id, K) of every run, K drawn from ``rng``."""
@@ -190,7 +210,12 @@ def make_dataset(
     plan, per_run = seeded_plan(spec, seed)
     t0 = time.perf_counter()
     trajs = simulate_runs(
-        atlas, [k for _, _, k in plan], [c for c, _ in per_run], progress, spec.interpolate_layers
+        atlas,
+        [k for _, _, k in plan],
+        [c for c, _ in per_run],
+        progress,
+        spec.interpolate_layers,
+        spec.duty,
     )
     sim_s = time.perf_counter() - t0
     runs = [(split, rid, t) for (split, rid, _), t in zip(plan, trajs, strict=True)]

@@ -110,17 +110,54 @@ class Trajectory:
         return 0.5 * self.mass_kg * self.speed_mps**2
 
 
+@dataclass(frozen=True)
+class AlternatingRoutes:
+    """A duty cycle that alternates between two routes in blocks of events.
+
+    Blocks 0, 2, 4... run on the haul road (speeds in the upper half of the envelope's
+    range), blocks 1, 3, 5... in the pit (the lower half); mass and slope stay uniform. The
+    overall mix is the uniform one of the paper; only its order in time changes. With
+    independent conditions from event to event, a wear law that scales each event's wear by
+    a function of its conditions only rescales the pad's K; alternating routes make such a
+    law show in the wear path (sim2real's validation uses this).
+
+    Attributes:
+        block_events: Events per block [-], >= 1.
+    """
+
+    block_events: int
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.block_events, int) or self.block_events < 1:
+            raise ValueError(
+                f"AlternatingRoutes.block_events must be an int >= 1, got {self.block_events!r}"
+            )
+
+    def apply(self, u: F64, first: int) -> F64:
+        """Uniform triples (n, 3) of events ``first``, ``first + 1``... on their routes."""
+        haul = ((first + np.arange(len(u))) // self.block_events) % 2 == 0
+        out = u.copy()
+        out[:, 0] = 0.5 * (u[:, 0] + haul)
+        return out
+
+
 class _Stream:
     """A run's operating conditions: uniform triples drawn in order, extended on demand."""
 
-    def __init__(self, rng: np.random.Generator, capacity: int) -> None:
-        self.rng = rng
-        self.u = rng.random((max(capacity, _CHUNK_MIN), 3))
+    def __init__(
+        self, rng: np.random.Generator, capacity: int, duty: AlternatingRoutes | None = None
+    ) -> None:
+        self.rng, self.duty = rng, duty
+        self.u = self._draw(max(capacity, _CHUNK_MIN), 0)
+
+    def _draw(self, n: int, first: int) -> F64:
+        u = self.rng.random((n, 3))
+        return u if self.duty is None else self.duty.apply(u, first)
 
     def take(self, start: int, n: int) -> F64:
         if start + n > len(self.u):
             extra = max(start + n - len(self.u), len(self.u) // 2)
-            self.u = np.concatenate([self.u, self.rng.random((extra, 3))])
+            self.u = np.concatenate([self.u, self._draw(extra, len(self.u))])
         return self.u[start : start + n]
 
 
@@ -146,6 +183,7 @@ def simulate_runs(
     seeds: Sequence[np.random.SeedSequence],
     progress: Callable[[int], object] | None = None,
     interpolate_layers: bool = False,
+    duty: AlternatingRoutes | None = None,
 ) -> list[Trajectory]:
     """Simulate one pad to failure per wear coefficient, all runs at once.
 
@@ -157,6 +195,7 @@ def simulate_runs(
         interpolate_layers: Blend the active layer with the next one linearly in the volume
             at the start of each event (the paper's footnote 1), instead of holding the
             active layer until the volume crosses the next 1% level.
+        duty: Order of the operating conditions in time (default: independent draws).
     """
     ks = np.asarray(wear_coeffs, dtype=np.float64)
     if ks.ndim != 1 or len(seeds) != ks.size:
@@ -171,7 +210,8 @@ def simulate_runs(
     mean_w = atlas.expected("wear_per_k_m3")
     capacity = (1.1 * expected_life(atlas, ks)).astype(np.int64) + 1000
     streams = [
-        _Stream(np.random.default_rng(s), int(c)) for s, c in zip(seeds, capacity, strict=True)
+        _Stream(np.random.default_rng(s), int(c), duty)
+        for s, c in zip(seeds, capacity, strict=True)
     ]
     outs = [_RunColumns(int(c)) for c in capacity]
     pos = np.zeros(n_runs, dtype=np.int64)
@@ -331,7 +371,11 @@ def _layer_block(
 
 
 def simulate_run_reference(
-    atlas: Atlas, wear_coeff: float, seed: np.random.SeedSequence, interpolate_layers: bool = False
+    atlas: Atlas,
+    wear_coeff: float,
+    seed: np.random.SeedSequence,
+    interpolate_layers: bool = False,
+    duty: AlternatingRoutes | None = None,
 ) -> Trajectory:
     """Literal per-event loop over the same random stream as :func:`simulate_runs`.
 
@@ -340,7 +384,7 @@ def simulate_run_reference(
     _check_wear_per_event(atlas, wear_coeff)
     pad_v = atlas.spec.model.brake.pad_volume_m3
     stream = _Stream(
-        np.random.default_rng(seed), int(1.1 * expected_life(atlas, wear_coeff)) + 1000
+        np.random.default_rng(seed), int(1.1 * expected_life(atlas, wear_coeff)) + 1000, duty
     )
     lowers = atlas.lower_edges
     rows = []

@@ -248,11 +248,17 @@ def cmd_validate_gap(args: argparse.Namespace) -> dict[str, Any]:
         n_controls=args.controls,
         n_runs=args.runs,
         with_rul=not args.no_rul,
+        route_block_events=args.route_block_events,
     )
     t0 = time.perf_counter()
     with tqdm(desc="validate", unit="case", disable=args.quiet) as bar:
         r = validate_gap(
-            atlas, spec, args.seed, progress=lambda _: bar.update(), case_filter=args.only
+            atlas,
+            spec,
+            args.seed,
+            progress=lambda _: bar.update(),
+            case_filter=args.only,
+            jobs=args.jobs,
         )
     r["seconds"] = time.perf_counter() - t0
     write_json(r, out / "validation.json")
@@ -355,4 +361,11 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
     )
     v.add_argument("--no-rul", action="store_true", help="skip the twin's RUL error")
     v.add_argument("--only", nargs="+", default=None, help="run only cases containing these")
+    v.add_argument(
+        "--route-block-events",
+        type=int,
+        default=0,
+        help="0: independent operating conditions; N: haul-road and pit blocks of N events",
+    )
+    v.add_argument("--jobs", type=int, default=1, help="cases run in parallel processes")
     v.set_defaults(func=cmd_validate_gap)

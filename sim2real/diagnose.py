@@ -152,7 +152,7 @@ class Residuals:
 
 def residuals(rm: ReplayModel, rows: I64, k: F64, nodes: int) -> Residuals:
     d = rm.data
-    v = rm.volume(d.u[rows], k[d.run[rows]])
+    v = rm.volume(rm.u[rows], k[d.run[rows]])
     p = rm.predict(rows, v, nodes)
     t = (d.temp_c[rows] - p.temp_mean) / rm.noise.temp_c
     s = (d.stop_dist_m[rows] - p.stop_reading) / rm.noise.stop_dist_m
@@ -563,7 +563,7 @@ def _offset(s: _Scored, nominal: ReplayModel, rows: I64) -> F64 | None:
     ok = d.ok[rows]
     out = np.zeros(rows.size)
     r = rows[ok]
-    v = rm.volume(d.u[r], s.k[d.run[r]])
+    v = rm.volume(rm.u[r], s.k[d.run[r]])
     if rm.kind in ("sensor", "between-events"):
         out[ok] = rm.respond(r, v)["temp_mean_c"] - nominal.respond(r, v)["temp_mean_c"]
     else:

@@ -29,6 +29,7 @@ from brake_env.atlas import Atlas, AtlasSpec, cached_atlas
 from brake_env.datasets import DatasetSpec, event_logs, seeded_plan
 from brake_env.simulator import (
     F64,
+    AlternatingRoutes,
     Trajectory,
     conditions_from_uniform,
     expected_life,
@@ -131,9 +132,13 @@ def simulate_truth(
             for k, r in zip(ks, time_rngs, strict=True)
         ]
         atlases = start_temp_atlases(atlas_spec, kinds["in-event"])
-        trajs, ctxs = _carry_over_runs(atlases, ks, cond_seeds, times, history[0], progress)
+        trajs, ctxs = _carry_over_runs(
+            atlases, ks, cond_seeds, times, history[0], progress, spec.dataset.duty
+        )
     else:
-        trajs = simulate_runs(atlas, ks, cond_seeds, progress, spec.dataset.interpolate_layers)
+        trajs = simulate_runs(
+            atlas, ks, cond_seeds, progress, spec.dataset.interpolate_layers, spec.dataset.duty
+        )
         times = [
             event_times(t.n_events, spec.mean_gap_s, r)
             for t, r in zip(trajs, time_rngs, strict=True)
@@ -184,6 +189,7 @@ def _carry_over_runs(
     times: list[F64],
     effect: Effect,
     progress: Callable[[int], object] | None,
+    duty: AlternatingRoutes | None = None,
 ) -> tuple[list[Trajectory], list[SensorContext]]:
     """Runs to failure whose start temperatures carry over from event to event.
 
@@ -202,6 +208,8 @@ def _carry_over_runs(
     cap = int(caps.max())
     # The same uniform stream as simulate_runs draws (sequential triples per run).
     u = np.stack([np.random.default_rng(sd).random((cap, 3)) for sd in seeds])
+    if duty is not None:
+        u = np.stack([duty.apply(x, 0) for x in u])
     gaps = np.stack(
         [np.diff(np.pad(t, (0, cap - len(t)), mode="edge"), prepend=t[0]) for t in times]
     )

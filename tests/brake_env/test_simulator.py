@@ -3,6 +3,7 @@ import pytest
 
 from brake_env.simulator import (
     TRAJECTORY_ARRAYS,
+    AlternatingRoutes,
     expected_life,
     simulate_run_reference,
     simulate_runs,
@@ -121,3 +122,37 @@ def test_trajectory_array_names_match_the_dataclass() -> None:
 
     names = [f.name for f in dataclasses.fields(Trajectory)]
     assert names == ["wear_coeff", *TRAJECTORY_ARRAYS, "final_volume_frac"]
+
+
+def test_alternating_routes_vectorised_equals_reference_and_keeps_the_mix(small_atlas) -> None:
+    duty = AlternatingRoutes(block_events=300)
+    ss = seeds(2, seed=5)
+    fast = simulate_runs(small_atlas, [K_FAST, 1.2 * K_FAST], ss, duty=duty)
+    for k, s, traj in zip([K_FAST, 1.2 * K_FAST], ss, fast, strict=True):
+        ref = simulate_run_reference(small_atlas, k, s, duty=duty)
+        assert ref.n_events == traj.n_events
+        for f in TRAJECTORY_ARRAYS:
+            np.testing.assert_array_equal(getattr(traj, f), getattr(ref, f), err_msg=f)
+    lo, hi = small_atlas.speed_mps[0], small_atlas.speed_mps[-1]
+    mid = 0.5 * (lo + hi)
+    t = fast[0]
+    block = np.arange(t.n_events) // 300
+    assert np.all(t.speed_mps[block % 2 == 0] >= mid)  # haul road: upper half
+    assert np.all(t.speed_mps[block % 2 == 1] < mid)  # pit: lower half
+    # Mass and slope are the independent draws' own; the speed mix stays uniform overall.
+    plain = simulate_runs(small_atlas, [K_FAST], ss[:1])[0]
+    n = min(t.n_events, plain.n_events)
+    np.testing.assert_array_equal(t.mass_kg[:n], plain.mass_kg[:n])
+    u = (t.speed_mps - lo) / (hi - lo)
+    assert abs(u.mean() - 0.5) < 0.02 and abs(np.mean(u < 0.5) - 0.5) < 0.05
+
+
+def test_alternating_routes_rejects_bad_blocks() -> None:
+    with pytest.raises(ValueError, match="block_events"):
+        AlternatingRoutes(block_events=0)
+    from brake_env.datasets import DatasetSpec
+
+    with pytest.raises(ValueError, match="route_block_events"):
+        DatasetSpec(route_block_events=-1)
+    assert DatasetSpec().duty is None
+    assert DatasetSpec(route_block_events=500).duty == AlternatingRoutes(500)
