@@ -190,6 +190,8 @@ def test_regimes_draw_the_right_kind_of_pads(make):
         ({"render_mode": "human"}, "render_mode"),
     ],
 )
+# gym.make warns about an unsupported render_mode before the env raises its own error.
+@pytest.mark.filterwarnings("ignore:.*render_mode.*:UserWarning")
 def test_invalid_arguments_raise_one_clear_error(atlas, kwargs, match):
     with pytest.raises(ValueError, match=match):
         gym.make("BrakeWear-v0", atlas=atlas, **kwargs)
