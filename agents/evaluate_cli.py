@@ -18,7 +18,7 @@ from typing import Any
 from tqdm import tqdm
 
 from agents.predictors import PREDICTORS, make_predictor
-from brake_env.cli import DemoContext, add_common_args, load_atlas, write_json
+from brake_env.cli import DemoContext, add_common_args, int_at_least, load_atlas, write_json
 from brake_env.datasets import SPLITS
 from brake_env.predictors import Predictor
 from brake_env.prognostics import Evaluation, EvaluationConfig, evaluate
@@ -38,18 +38,8 @@ def _predictor_list(text: str) -> tuple[str, ...]:
     return names
 
 
-def _positive_int(text: str) -> int:
-    n = int(text)
-    if n < 1:
-        raise argparse.ArgumentTypeError(f"expected an integer >= 1, got {text}")
-    return n
-
-
-def _nonneg_int(text: str) -> int:
-    n = int(text)
-    if n < 0:
-        raise argparse.ArgumentTypeError(f"expected an integer >= 0, got {text}")
-    return n
+_positive_int = int_at_least(1)
+_nonneg_int = int_at_least(0)
 
 
 def register(sub: argparse._SubParsersAction[Any]) -> None:

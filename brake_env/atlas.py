@@ -197,7 +197,8 @@ class Atlas:
             "critical_volume": self.critical_volume,
             "build_seconds": self.build_seconds,
         }
-        tmp = path.with_name(path.name + ".tmp.npz")
+        # A name of its own per process: parallel workers may build the same atlas at once.
+        tmp = path.with_name(f"{path.name}.{os.getpid()}.tmp.npz")
         arrays = self._arrays()
         meta["arrays_sha256"] = _digest(arrays)
         payload: dict[str, Any] = {"meta": np.array(json.dumps(meta, sort_keys=True)), **arrays}

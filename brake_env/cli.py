@@ -30,11 +30,20 @@ def _formats(text: str) -> tuple[str, ...]:
     return out
 
 
-def _nonneg_int(text: str) -> int:
-    n = int(text)
-    if n < 0:
-        raise argparse.ArgumentTypeError(f"expected an integer >= 0, got {text}")
-    return n
+def int_at_least(lo: int) -> Callable[[str], int]:
+    """An argparse ``type`` for integers >= ``lo``, with one clear error otherwise."""
+
+    def parse(text: str) -> int:
+        n = int(text)
+        if n < lo:
+            raise argparse.ArgumentTypeError(f"expected an integer >= {lo}, got {text}")
+        return n
+
+    parse.__name__ = f"int>={lo}"  # argparse names the type in its error message
+    return parse
+
+
+_nonneg_int = int_at_least(0)
 
 
 def write_json(obj: Any, path: Path) -> Path:

@@ -108,12 +108,14 @@ class Dataset:
         logs: Split name -> event log (noisy channels plus ground truth).
         simulate_seconds: Wall time of the coupled simulation.
         interpolate_layers: Whether adjacent layers were blended.
+        route_block_events: The alternating-route block length (0: independent draws).
     """
 
     runs: list[tuple[str, str, Trajectory]]
     logs: dict[str, pd.DataFrame]
     simulate_seconds: float
     interpolate_layers: bool = False
+    route_block_events: int = 0
 
 
 def measure(
@@ -227,7 +229,7 @@ def make_dataset(
             spec.noise,
             [np.random.default_rng(per_run[i][1]) for i in idx],
         )
-    return Dataset(runs, logs, sim_s, spec.interpolate_layers)
+    return Dataset(runs, logs, sim_s, spec.interpolate_layers, spec.route_block_events)
 
 
 def write_dataset(

@@ -377,7 +377,8 @@ def simulate_run_reference(
     interpolate_layers: bool = False,
     duty: AlternatingRoutes | None = None,
 ) -> Trajectory:
-    """Literal per-event loop over the same random stream as :func:`simulate_runs`.
+    """Literal per-event loop over the same random stream as :func:`simulate_runs` (with
+    the same ``duty``, if any).
 
     The reference for tests and the benchmark baseline: one atlas query per event.
     """

@@ -73,6 +73,7 @@ def dataset_summary(ds: Dataset, atlas: Atlas, seed: int) -> dict[str, Any]:
     return {
         "seed": seed,
         "interpolate_layers": ds.interpolate_layers,
+        "route_block_events": ds.route_block_events,
         "atlas": atlas_summary(atlas),
         "events_total": int(n.sum()),
         "life_events": life,

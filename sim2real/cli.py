@@ -23,6 +23,7 @@ from brake_env.cli import (
     add_common_args,
     cmd_simulate,
     dataset_spec,
+    int_at_least,
     load_atlas,
     table,
     write_json,
@@ -261,6 +262,18 @@ def cmd_validate_gap(args: argparse.Namespace) -> dict[str, Any]:
             jobs=args.jobs,
         )
     r["seconds"] = time.perf_counter() - t0
+    r["settings"] = {
+        "seed": args.seed,
+        "seeds_mid": spec.seeds_mid,
+        "low_magnitude": spec.low_magnitude,
+        "n_controls": spec.n_controls,
+        "n_out_of_library": spec.n_out_of_library,
+        "n_runs": spec.n_runs,
+        "k_mean": spec.k_mean,
+        "route_block_events": spec.route_block_events,
+        "only": args.only,
+        "jobs": args.jobs,
+    }
     write_json(r, out / "validation.json")
     text, md = _render_validation(r)
     figs = _validation_figures(r, out)
@@ -363,9 +376,11 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
     v.add_argument("--only", nargs="+", default=None, help="run only cases containing these")
     v.add_argument(
         "--route-block-events",
-        type=int,
+        type=int_at_least(0),
         default=0,
         help="0: independent operating conditions; N: haul-road and pit blocks of N events",
     )
-    v.add_argument("--jobs", type=int, default=1, help="cases run in parallel processes")
+    v.add_argument(
+        "--jobs", type=int_at_least(1), default=1, help="cases run in parallel processes"
+    )
     v.set_defaults(func=cmd_validate_gap)

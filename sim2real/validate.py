@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Sequence
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
 from multiprocessing import get_context
 from typing import Any
@@ -131,11 +131,15 @@ def validate_gap(
     else:
         with ProcessPoolExecutor(max_workers=jobs, mp_context=get_context("spawn")) as pool:
             futures = [pool.submit(run_case, atlas, spec, case) for case in todo]
-            for f in futures:  # in case order; the bar moves as each one ends
-                rec = f.result()
-                if progress:
-                    progress(f"{rec['case']}: {rec['answer']}")
-            records = [f.result() for f in futures]
+            try:
+                for f in as_completed(futures):  # the bar moves as each case ends
+                    rec = f.result()
+                    if progress:
+                        progress(f"{rec['case']}: {rec['answer']}")
+            except BaseException:
+                pool.shutdown(wait=False, cancel_futures=True)
+                raise
+            records = [f.result() for f in futures]  # in case order
     return {"cases": records, **summarise(records)}
 
 

@@ -156,3 +156,17 @@ def test_alternating_routes_rejects_bad_blocks() -> None:
         DatasetSpec(route_block_events=-1)
     assert DatasetSpec().duty is None
     assert DatasetSpec(route_block_events=500).duty == AlternatingRoutes(500)
+
+
+def test_duty_applies_by_absolute_event_when_the_stream_grows() -> None:
+    from brake_env.simulator import _Stream
+
+    duty = AlternatingRoutes(block_events=700)
+    seq = np.random.SeedSequence(8)
+    grown = _Stream(np.random.default_rng(seq), 10, duty)
+    # Taken in pieces, so that the stream grows several times past its first chunk.
+    got = np.concatenate(
+        [grown.take(a, b - a) for a, b in ((0, 4000), (4000, 7000), (7000, 12_000))]
+    )
+    whole = duty.apply(np.random.default_rng(seq).random((12_000, 3)), 0)
+    np.testing.assert_array_equal(got, whole)

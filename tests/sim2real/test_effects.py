@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -66,10 +68,10 @@ def test_carry_over_recurrence_with_no_cooling_delay_is_the_nominal_simulator(
         def is_neutral(self) -> bool:
             return False
 
-    ds = short_runs(2)
-    nominal = make_dataset(s2r_atlas, ds, seed=4).logs["train"]
-    truth = simulate_truth(SMALL, [Forced(tau_s=0.0)], TruthSpec(ds), seed=4)["train"]
-    assert truth.drop(columns="time_s").equals(nominal)
+    for ds in (short_runs(2), dataclasses.replace(short_runs(2), route_block_events=250)):
+        nominal = make_dataset(s2r_atlas, ds, seed=4).logs["train"]
+        truth = simulate_truth(SMALL, [Forced(tau_s=0.0)], TruthSpec(ds), seed=4)["train"]
+        assert truth.drop(columns="time_s").equals(nominal), ds.route_block_events
 
 
 def test_carry_over_heats_events_that_follow_closely(s2r_atlas: Atlas) -> None:

@@ -29,8 +29,6 @@ def test_wear_law_in_speed_reweights_the_operational_time(s2r_atlas: Atlas) -> N
     spec = dataclasses.replace(spec, route_block_events=400)
     log = simulate_truth(SMALL, [], TruthSpec(spec), seed=3)["train"]
     d = prepare_log(log, s2r_atlas)
-    neutral = ReplayModel(s2r_atlas, d, PowerLawWear())
-    np.testing.assert_array_equal(neutral.u, d.u)
     steep = ReplayModel(s2r_atlas, d, PowerLawWear(b=2.0))
     step_nominal, step_steep = np.diff(d.u), np.diff(steep.u)
     haul = ((d.event[:-1] // 400) % 2 == 0) & (np.diff(d.run) == 0)
