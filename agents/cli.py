@@ -14,17 +14,17 @@ from agents.evaluation import run_episodes, summary_rows, with_oracle_ratios
 from agents.policies import RULThreshold
 from agents.predictors import PREDICTORS
 from agents.train import ALGOS, TrainedAgent, agent_env, train_agent
-from brake_env.cli import DemoContext, add_common_args, load_atlas, table, write_json
+from brake_env.cli import (
+    DemoContext,
+    add_common_args,
+    int_at_least,
+    load_atlas,
+    table,
+    write_json,
+)
 from brake_env.env import BrakeWearEnv
 from brake_env.env_config import REGIMES
 from brake_env.wrappers import RULObservation
-
-
-def _positive_int(text: str) -> int:
-    n = int(text)
-    if n < 1:
-        raise argparse.ArgumentTypeError(f"expected an integer >= 1, got {text}")
-    return n
 
 
 def _names(text: str) -> tuple[str, ...]:
@@ -37,8 +37,8 @@ def _names(text: str) -> tuple[str, ...]:
 
 def _env_args(sp: argparse.ArgumentParser) -> None:
     sp.add_argument("--regime", choices=REGIMES, default="mixed", help="wear regime of new pads")
-    sp.add_argument("--decision-interval", type=_positive_int, default=500, help="events/step")
-    sp.add_argument("--episode-events", type=_positive_int, default=500_000, help="per episode")
+    sp.add_argument("--decision-interval", type=int_at_least(1), default=500, help="events/step")
+    sp.add_argument("--episode-events", type=int_at_least(1), default=500_000, help="per episode")
 
 
 # ---------------------------------------------------------------------- train
@@ -254,10 +254,10 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
     add_common_args(t, "out/train")
     t.add_argument("--predictor", choices=PREDICTORS, default="twin")
     t.add_argument("--algo", choices=ALGOS, default="ppo")
-    t.add_argument("--timesteps", type=_positive_int, default=100_000)
+    t.add_argument("--timesteps", type=int_at_least(1), default=100_000)
     t.add_argument("--hyperparams", default=None, help="TOML file (default agents/hyperparams/)")
-    t.add_argument("--n-train-runs", type=_positive_int, default=10, help="pads to fit on")
-    t.add_argument("--eval-seeds", type=_positive_int, default=4, help="held-out episodes")
+    t.add_argument("--n-train-runs", type=int_at_least(1), default=10, help="pads to fit on")
+    t.add_argument("--eval-seeds", type=int_at_least(1), default=4, help="held-out episodes")
     t.add_argument("--atlas", default=None, help="atlas .npz instead of the cache")
     _env_args(t)
     t.set_defaults(func=cmd_train)
@@ -268,13 +268,13 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
         help="rank predictors by the maintenance cost their policies lead to",
     )
     add_common_args(c, "out/compare")
-    c.add_argument("--timesteps", type=_positive_int, default=50_000, help="per agent")
+    c.add_argument("--timesteps", type=int_at_least(1), default=50_000, help="per agent")
     c.add_argument("--algo", choices=ALGOS, default="ppo")
     c.add_argument("--predictors", type=_names, default=PREDICTORS, help="comma-separated")
     c.add_argument("--agents", type=_names, default=PREDICTORS, help="predictors given an agent")
-    c.add_argument("--n-train-runs", type=_positive_int, default=10, help="pads to fit on")
-    c.add_argument("--tune-seeds", type=_positive_int, default=4)
-    c.add_argument("--eval-seeds", type=_positive_int, default=8)
+    c.add_argument("--n-train-runs", type=int_at_least(1), default=10, help="pads to fit on")
+    c.add_argument("--tune-seeds", type=int_at_least(1), default=4)
+    c.add_argument("--eval-seeds", type=int_at_least(1), default=8)
     c.add_argument("--atlas", default=None, help="atlas .npz instead of the cache")
     _env_args(c)
     c.set_defaults(func=cmd_compare)

@@ -38,10 +38,6 @@ def _predictor_list(text: str) -> tuple[str, ...]:
     return names
 
 
-_positive_int = int_at_least(1)
-_nonneg_int = int_at_least(0)
-
-
 def register(sub: argparse._SubParsersAction[Any]) -> None:
     """Add ``evaluate`` to the ``brakewear`` parser."""
     e = sub.add_parser(
@@ -64,12 +60,12 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
     e.add_argument("--atlas", default=None, help="atlas .npz to use instead of the cache")
     e.add_argument(
         "--batch-events",
-        type=_nonneg_int,
+        type=int_at_least(0),
         default=0,
         help="events per predictor update (0: each run in one batch; same numbers, faster)",
     )
     e.add_argument(
-        "--mlp-epochs", type=_positive_int, default=None, help="MLP epochs (default: its config)"
+        "--mlp-epochs", type=int_at_least(1), default=None, help="MLP epochs (default: its config)"
     )
     e.set_defaults(func=cmd_evaluate)
 

@@ -13,14 +13,15 @@ Run: ``.venv/bin/python benchmarks/bench_baselines.py [--json out.json]``.
 from __future__ import annotations
 
 import argparse
-import json
 import time
+from pathlib import Path
 
 import pandas as pd
 
 from baselines.mlp import MLPPredictor
 from baselines.physics import PhysicsPredictor
 from brake_env.atlas import cached_atlas
+from brake_env.cli import write_json
 from brake_env.datasets import make_dataset
 from brake_env.predictors import Oracle, predict_log
 from brake_env.prognostics import evaluate
@@ -69,8 +70,7 @@ def main() -> dict[str, float]:
         f" -> {res['harness_over_predict_log']:.2f}x"
     )
     if args.json:
-        with open(args.json, "w") as f:
-            json.dump(res, f, indent=2)
+        write_json(res, Path(args.json))
     return res
 
 

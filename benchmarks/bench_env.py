@@ -16,13 +16,14 @@ Run: ``make bench`` or ``.venv/bin/python benchmarks/bench_env.py [--json out.js
 from __future__ import annotations
 
 import argparse
-import json
 import time
+from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
 
 import brake_env  # noqa: F401  (registers BrakeWear-v0)
+from brake_env.cli import table, write_json
 from brake_env.env import default_atlas
 from brake_env.predictors import Oracle
 from brake_env.simulator import simulate_runs
@@ -110,12 +111,9 @@ def main() -> dict[str, float]:
     rows.insert(0, ("simulator, 1 pad per call", "", f"{sim_one:.3g} ev/s", "", "baseline"))
     rows.insert(1, ("simulator, 8 pads per call", "", f"{sim_batch:.3g} ev/s", "", "baseline"))
     header = ("figure", "steps/s", "events/s", "x simulator", "target")
-    w = [max(len(r[i]) for r in [header, *rows]) for i in range(5)]
-    for r in [header, *rows]:
-        print("  ".join(c.ljust(x) for c, x in zip(r, w, strict=True)))
+    print(table([list(r) for r in (header, *rows)]))
     if args.json:
-        with open(args.json, "w") as f:
-            json.dump(fig, f, indent=2)
+        write_json(fig, Path(args.json))
     return fig
 
 

@@ -13,15 +13,16 @@ Run: ``make bench`` or ``.venv/bin/python benchmarks/bench_simulator.py [--json 
 from __future__ import annotations
 
 import argparse
-import json
 import platform
 import resource
 import time
 import tracemalloc
+from pathlib import Path
 
 import numpy as np
 
 from brake_env.atlas import Atlas, AtlasSpec
+from brake_env.cli import table, write_json
 from brake_env.datasets import DatasetSpec, make_dataset, seeded_plan
 from brake_env.simulator import simulate_run_reference, simulate_runs
 
@@ -126,12 +127,9 @@ def main() -> dict[str, float]:
         ),
         ("process max RSS", f"{figures['process_max_rss_mb']:.0f} MB", "", "whole benchmark"),
     ]
-    w = [max(len(r[i]) for r in rows) for i in range(4)]
-    for r in [("figure", "measured", "target", "note"), *rows]:
-        print("  ".join(c.ljust(x) for c, x in zip(r, w, strict=True)))
+    print(table([["figure", "measured", "target", "note"], *(list(r) for r in rows)]))
     if args.json:
-        with open(args.json, "w") as f:
-            json.dump(figures, f, indent=2)
+        write_json(figures, Path(args.json))
     return figures
 
 

@@ -15,13 +15,14 @@ Run: ``.venv/bin/python benchmarks/bench_twin.py [--json out.json]``.
 from __future__ import annotations
 
 import argparse
-import json
 import platform
 import time
+from pathlib import Path
 
 import numpy as np
 
 from brake_env.atlas import cached_atlas
+from brake_env.cli import table, write_json
 from brake_env.datasets import DatasetSpec, make_dataset
 from brake_env.predictors import EventBatch, Predictor, iter_runs
 from twin import DigitalTwin
@@ -101,12 +102,9 @@ def main() -> dict[str, float]:
         ("speed-up, twin b500 / reference", f"{b500 / ref_every:,.0f}x", ">= 100x", "same run"),
         ("speed-up, twin b1 / reference", f"{b1 / ref_every:,.0f}x", "", ""),
     ]
-    w = [max(len(r[i]) for r in rows) for i in range(4)]
-    for r in [("figure", "measured", "target", "note"), *rows]:
-        print("  ".join(c.ljust(x) for c, x in zip(r, w, strict=True)))
+    print(table([["figure", "measured", "target", "note"], *(list(r) for r in rows)]))
     if args.json:
-        with open(args.json, "w") as f:
-            json.dump(figures, f, indent=2)
+        write_json(figures, Path(args.json))
     return figures
 
 

@@ -43,9 +43,6 @@ def int_at_least(lo: int) -> Callable[[str], int]:
     return parse
 
 
-_nonneg_int = int_at_least(0)
-
-
 def write_json(obj: Any, path: Path) -> Path:
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(json.dumps(obj, indent=2, sort_keys=False) + "\n")
@@ -290,7 +287,7 @@ def build_parser() -> argparse.ArgumentParser:
             help="event-log formats: parquet, csv or parquet,csv",
         )
         for name, n in (("train", 10), ("id", 10), ("ood-slow", 5), ("ood-fast", 5)):
-            sp.add_argument(f"--n-{name}", type=_nonneg_int, default=n, help=f"{name} runs")
+            sp.add_argument(f"--n-{name}", type=int_at_least(0), default=n, help=f"{name} runs")
         sp.add_argument("--k-mean", type=float, default=2e-6, help="mean Archard coefficient")
         sp.add_argument("--k-std", type=float, default=2e-7, help="std of the coefficient")
         sp.add_argument(
@@ -300,7 +297,7 @@ def build_parser() -> argparse.ArgumentParser:
         )
         sp.add_argument(
             "--route-block-events",
-            type=_nonneg_int,
+            type=int_at_least(0),
             default=0,
             help="0: independent operating conditions; N: haul-road and pit blocks of N events",
         )

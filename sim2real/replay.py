@@ -294,8 +294,8 @@ class ReplayModel:
                 brake=dataclasses.replace(self.model.brake, start_temp_c=self.base_t0 + _T0_STEP),
             )
             self._dt0 = self._grid(grid, lambda sp, m, th, v: simulate_events(sp, m, th, v, hot))
-        self.u = self._operational_time()
-        self._tau = self._wear_clock(condition_sample)
+        self.u, ref_mean = self._operational_time()
+        self._tau = self._wear_clock(condition_sample, ref_mean)
 
     # ------------------------------------------------------------------ construction
     def _grid(
@@ -331,14 +331,14 @@ class ReplayModel:
         vals = np.nan_to_num(vals)
         return GridInterp(axes, vals)
 
-    def _operational_time(self) -> F64:
-        """The log's operational time under this model: an in-event effect that changes
-        wear re-weights each event's severity (a wear law in speed, say, makes fast events
-        count for more than the nominal model says)."""
+    def _operational_time(self) -> tuple[F64, float]:
+        """The log's operational time under this model, and its unit (the log's mean wear at
+        the reference volume): an in-event effect that changes wear re-weights each event's
+        severity (a wear law in speed, say, makes fast events count for more than the
+        nominal model says)."""
         d = self.data
         if self._delta is None:
-            self._ref_mean = float(np.nanmean(d.wear_ref))
-            return d.u
+            return d.u, float(np.nanmean(d.wear_ref))
         ok = np.flatnonzero(d.ok)
         v_ref = float(self.atlas.volumes[_severity_layer(self.atlas)])
         pts = np.stack(
@@ -346,11 +346,11 @@ class ReplayModel:
         )
         w = d.wear_ref.copy()
         w[ok] *= 1.0 + self._delta(pts, [_GRID_FIELDS.index("wear_per_k_m3")])[:, 0]
-        self._ref_mean = float(np.nanmean(w))
-        return operational_time(w, d.event, d.starts)
+        return operational_time(w, d.event, d.starts), float(np.nanmean(w))
 
-    def _wear_clock(self, sample: I64 | None) -> tuple[F64, F64]:
-        """(volume, tau) knots: events x K to wear from 1.0 to each layer edge, down to v_end."""
+    def _wear_clock(self, sample: I64 | None, ref_mean: float) -> tuple[F64, F64]:
+        """(volume, tau) knots: events x K to wear from 1.0 to each layer edge, down to v_end
+        (``ref_mean``: the unit of the operational time, see :meth:`_operational_time`)."""
         d, a = self.data, self.atlas
         if sample is None:  # the log's mix of conditions, a fixed subsample of it
             ok = np.flatnonzero(d.ok)
@@ -378,7 +378,7 @@ class ReplayModel:
         # Control variate: the sample's mean wear at the reference layer against the whole
         # log's (the unit of ``u``); wear at other layers is highly correlated with it, so
         # the ratio removes most of the sample's error from every layer's mean.
-        w = w * (self._ref_mean / np.mean(w[_severity_layer(a)]))
+        w = w * (ref_mean / np.mean(w[_severity_layer(a)]))
         if self._dt0 is not None:
             shift = self._t0_shift_mean(rows)[None, :] / _T0_STEP
             w = w * (1.0 + shift * self._dt0(pts, [2])[:, 0].reshape(w.shape))
@@ -545,12 +545,11 @@ class ReplayModel:
         """Per run, the maximum-likelihood K of its state path (NaN for other runs).
 
         The score is the model's likelihood of the readings (:meth:`predict` and
-        :meth:`loglik`: slope reading integrated out over ``n_slope`` nodes, 3 here against
-        the 5 that score candidates, which is cheaper and moved K by < 0.1% in trials;
-        stop readings floored). Least squares
-        on the logged slope and the unfloored distance is biased: on a no-effect log it put
-        K 1.4-2.5% low, which left a structured residual growing with wear (0.05 noise units)
-        where the model is right; the likelihood fit leaves none.
+        :meth:`loglik`: stop readings floored, slope reading integrated out over ``n_slope``
+        nodes, 3 here against the 5 that score candidates, which is cheaper and moved K by
+        < 0.1% in trials). Least squares on the logged slope and the unfloored distance is
+        biased: on a no-effect log it put K 1.4-2.5% low, which left a structured residual
+        growing with wear (0.05 noise units) where the model is right.
 
         A 12-point log-spaced grid between the bounds of :meth:`k_bounds` on ~300 fit events
         of each run (every n-th), then three passes of 7 points over two steps around the best
