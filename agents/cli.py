@@ -12,26 +12,22 @@ from tqdm import tqdm
 from agents.compare import CompareConfig, Entry, run_compare
 from agents.evaluation import run_episodes, summary_rows, with_oracle_ratios
 from agents.policies import RULThreshold
-from agents.predictors import PREDICTORS
 from agents.train import ALGOS, TrainedAgent, agent_env, train_agent
-from brake_env.cli import (
-    DemoContext,
-    add_common_args,
-    int_at_least,
-    load_atlas,
-    table,
-    write_json,
-)
-from brake_env.env import BrakeWearEnv
-from brake_env.env_config import REGIMES
-from brake_env.wrappers import RULObservation
+from brake_env.cli.common import add_common_args, int_at_least, load_atlas, table, write_json
+from brake_env.cli.demo import DemoContext
+from brake_env.env.brake_wear import BrakeWearEnv
+from brake_env.env.config import REGIMES
+from brake_env.env.wrappers import RULObservation
+from brake_env.prognostics.registry import predictor_names
 
 
 def _names(text: str) -> tuple[str, ...]:
     out = tuple(x.strip() for x in text.split(",") if x.strip())
-    bad = [x for x in out if x not in PREDICTORS]
+    bad = [x for x in out if x not in predictor_names()]
     if bad:
-        raise argparse.ArgumentTypeError(f"unknown predictor(s) {bad}; valid are {PREDICTORS}")
+        raise argparse.ArgumentTypeError(
+            f"unknown predictor(s) {bad}; valid are {predictor_names()}"
+        )
     return out
 
 
@@ -204,7 +200,7 @@ def demo_compare(ctx: DemoContext) -> tuple[dict[str, Any], str]:
     """The comparison on a small budget: short episodes, few seeds, one short PPO run on the
     twin (trained on a pool of 8 pads). Grids scale with the demo's pad life."""
     from agents.train import load_hyperparams
-    from brake_env.simulator import expected_life
+    from brake_env.model.simulator import expected_life
 
     args = ctx.args
     life = float(expected_life(load_atlas(args), args.k_mean))
@@ -252,7 +248,7 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
         help="train an SB3 agent on BrakeWear-v0 with a predictor's RUL estimates",
     )
     add_common_args(t, "out/train")
-    t.add_argument("--predictor", choices=PREDICTORS, default="twin")
+    t.add_argument("--predictor", choices=predictor_names(), default="twin")
     t.add_argument("--algo", choices=ALGOS, default="ppo")
     t.add_argument("--timesteps", type=int_at_least(1), default=100_000)
     t.add_argument("--hyperparams", default=None, help="TOML file (default agents/hyperparams/)")
@@ -270,8 +266,10 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
     add_common_args(c, "out/compare")
     c.add_argument("--timesteps", type=int_at_least(1), default=50_000, help="per agent")
     c.add_argument("--algo", choices=ALGOS, default="ppo")
-    c.add_argument("--predictors", type=_names, default=PREDICTORS, help="comma-separated")
-    c.add_argument("--agents", type=_names, default=PREDICTORS, help="predictors given an agent")
+    c.add_argument("--predictors", type=_names, default=predictor_names(), help="comma-separated")
+    c.add_argument(
+        "--agents", type=_names, default=predictor_names(), help="predictors given an agent"
+    )
     c.add_argument("--n-train-runs", type=int_at_least(1), default=10, help="pads to fit on")
     c.add_argument("--tune-seeds", type=int_at_least(1), default=4)
     c.add_argument("--eval-seeds", type=int_at_least(1), default=8)

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -32,13 +32,13 @@ from agents.evaluation import (
     with_oracle_ratios,
 )
 from agents.policies import FixedInterval, Policy, ReplaceOnFailure, RULThreshold
-from agents.predictors import PREDICTORS, make_predictor
-from brake_env.atlas import Atlas
-from brake_env.datasets import DatasetSpec, make_dataset
-from brake_env.env import BrakeWearEnv
-from brake_env.env_config import REGIMES, CostWeights
-from brake_env.predictors import Predictor
-from brake_env.wrappers import RULObservation
+from brake_env.data.datasets import DatasetSpec, make_dataset
+from brake_env.env.brake_wear import BrakeWearEnv
+from brake_env.env.config import REGIMES, CostWeights
+from brake_env.env.wrappers import RULObservation
+from brake_env.model.atlas import Atlas
+from brake_env.prognostics.protocol import Predictor
+from brake_env.prognostics.registry import make_predictor, predictor_names
 
 Entry = tuple[Policy, gym.Env[Any, Any]]
 
@@ -70,8 +70,8 @@ class CompareConfig:
     ood_share: float = 0.5
     decision_interval: int = 500
     episode_events: int = 500_000
-    predictors: tuple[str, ...] = PREDICTORS
-    agent_predictors: tuple[str, ...] = PREDICTORS
+    predictors: tuple[str, ...] = field(default_factory=predictor_names)
+    agent_predictors: tuple[str, ...] = field(default_factory=predictor_names)
     algo: str = "ppo"
     timesteps: int = 50_000
     n_train_runs: int = 10
@@ -87,9 +87,9 @@ class CompareConfig:
         if self.regime not in REGIMES:
             raise ValueError(f"regime must be one of {list(REGIMES)}, got {self.regime!r}")
         for group in (self.predictors, self.agent_predictors):
-            bad = [p for p in group if p not in PREDICTORS]
+            bad = [p for p in group if p not in predictor_names()]
             if bad:
-                raise ValueError(f"unknown predictor(s) {bad}; valid are {list(PREDICTORS)}")
+                raise ValueError(f"unknown predictor(s) {bad}; valid are {list(predictor_names())}")
         missing = [p for p in self.agent_predictors if p not in self.predictors]
         if missing:
             raise ValueError(f"agent predictor(s) {missing} are not among the predictors")

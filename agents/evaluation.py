@@ -17,9 +17,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agents.policies import Policy, RULThreshold
-from brake_env.env_config import CostWeights
-from brake_env.predictors import Oracle
-from brake_env.wrappers import RULObservation
+from brake_env.env.config import CostWeights
+from brake_env.env.wrappers import RULObservation
+from brake_env.prognostics.protocol import Oracle
 
 F64 = NDArray[np.float64]
 

@@ -8,7 +8,7 @@ from typing import Any, Protocol, runtime_checkable
 import numpy as np
 from numpy.typing import NDArray
 
-from brake_env.env import KEEP, OBS_NAMES, REPLACE
+from brake_env.env.brake_wear import KEEP, OBS_NAMES, REPLACE
 
 AGE_INDEX = OBS_NAMES.index("events_since_install")
 RUL_INDEX = len(OBS_NAMES)  # the first field RULObservation appends: rul_mean

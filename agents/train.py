@@ -24,11 +24,11 @@ import torch
 from numpy.typing import NDArray
 
 from agents.features import AgentFeatures
-from brake_env.atlas import Atlas
-from brake_env.env import BrakeWearEnv
-from brake_env.pads import PadLife
-from brake_env.predictors import RULEstimate, RULPredictor
-from brake_env.wrappers import RULObservation
+from brake_env.env.brake_wear import BrakeWearEnv
+from brake_env.env.pads import PadLife
+from brake_env.env.wrappers import RULObservation
+from brake_env.model.atlas import Atlas
+from brake_env.prognostics.protocol import RULEstimate, RULPredictor
 
 ALGOS = ("ppo", "dqn")
 HYPERPARAMS_DIR = Path(__file__).parent / "hyperparams"

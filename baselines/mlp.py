@@ -33,7 +33,7 @@ from torch import nn
 
 from baselines._runs import true_rul
 from brake_env._validate import check_positive, from_dict
-from brake_env.predictors import EventBatch, Predictor, RULEstimate
+from brake_env.prognostics.protocol import EventBatch, Predictor, RULEstimate
 
 F64 = NDArray[np.float64]
 FEATURES = ("event", "stop_dist_m", "energy_j", "slope_rad", "temp_c")
@@ -253,3 +253,8 @@ class MLPPredictor(Predictor):
         net.load_state_dict(state)
         self.net = net.eval()
         return self
+
+
+def make_mlp(atlas: object, seed: int = 0) -> MLPPredictor:
+    """Registry factory (``brakewear.predictors``): the paper's MLP, seeded."""
+    return MLPPredictor(MLPConfig(seed=seed))

@@ -26,9 +26,9 @@ import numpy as np
 import pandas as pd
 
 from baselines._runs import run_lives
-from brake_env.atlas import Atlas
-from brake_env.materials import hardness_mpa
-from brake_env.predictors import EventBatch, Predictor, RULEstimate
+from brake_env.model.atlas import Atlas
+from brake_env.model.materials import hardness_mpa
+from brake_env.prognostics.protocol import EventBatch, Predictor, RULEstimate
 
 ROOM_TEMP_C = 20.0
 
@@ -95,3 +95,8 @@ class PhysicsPredictor(Predictor):
             rul_mean=np.maximum(self.life_events - done, 0.0),
             volume_frac=np.maximum(1.0 - done * dv, self.failure_volume),
         )
+
+
+def make_physics(atlas: Atlas, seed: int = 0) -> PhysicsPredictor:
+    """Registry factory (``brakewear.predictors``); the model draws no random numbers."""
+    return PhysicsPredictor(atlas)

@@ -20,11 +20,11 @@ import pandas as pd
 
 from baselines.mlp import MLPPredictor
 from baselines.physics import PhysicsPredictor
-from brake_env.atlas import cached_atlas
-from brake_env.cli import write_json
-from brake_env.datasets import make_dataset
-from brake_env.predictors import Oracle, predict_log
-from brake_env.prognostics import evaluate
+from brake_env.cli.common import write_json
+from brake_env.data.datasets import make_dataset
+from brake_env.model.atlas import cached_atlas
+from brake_env.prognostics.evaluation import evaluate
+from brake_env.prognostics.protocol import Oracle, predict_log
 
 
 def _seconds(fn) -> float:  # type: ignore[no-untyped-def]

@@ -21,10 +21,10 @@ from pathlib import Path
 
 import numpy as np
 
-from brake_env.atlas import Atlas, AtlasSpec
-from brake_env.cli import table, write_json
-from brake_env.datasets import DatasetSpec, make_dataset, seeded_plan
-from brake_env.simulator import simulate_run_reference, simulate_runs
+from brake_env.cli.common import table, write_json
+from brake_env.data.datasets import DatasetSpec, make_dataset, seeded_plan
+from brake_env.model.atlas import Atlas, AtlasSpec
+from brake_env.model.simulator import simulate_run_reference, simulate_runs
 
 
 def timed(n: int, fn):

@@ -11,7 +11,7 @@ __version__ = "0.1.0"
 if "BrakeWear-v0" not in registry:
     register(
         id="BrakeWear-v0",
-        entry_point="brake_env.env:BrakeWearEnv",
-        vector_entry_point="brake_env.vector_env:BrakeWearVectorEnv",
+        entry_point="brake_env.env.brake_wear:BrakeWearEnv",
+        vector_entry_point="brake_env.env.vector:BrakeWearVectorEnv",
         disable_env_checker=False,
     )

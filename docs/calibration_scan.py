@@ -15,10 +15,10 @@ import math
 
 import numpy as np
 
-from brake_env.atlas import Atlas, AtlasSpec
-from brake_env.params import BrakeModel
-from brake_env.physics import critical_volume, simulate_events
-from brake_env.simulator import expected_life
+from brake_env.model.atlas import Atlas, AtlasSpec
+from brake_env.model.params import BrakeModel
+from brake_env.model.physics import critical_volume, simulate_events
+from brake_env.model.simulator import expected_life
 
 N_MC = 100_000
 

@@ -9,9 +9,9 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from brake_env.atlas import cached_atlas
-from brake_env.datasets import DatasetSpec, make_dataset, write_dataset
-from brake_env.plots import plot_volume_trajectories
+from brake_env.data.datasets import DatasetSpec, make_dataset, write_dataset
+from brake_env.data.plots import plot_volume_trajectories
+from brake_env.model.atlas import cached_atlas
 
 
 def main(out_dir: str = "out/example", k_mean: float = 2e-6, runs: int = 2) -> dict[str, int]:

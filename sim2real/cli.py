@@ -17,19 +17,12 @@ from typing import Any
 import numpy as np
 from tqdm import tqdm
 
-from brake_env.atlas import Atlas
-from brake_env.cli import (
-    DemoContext,
-    add_common_args,
-    cmd_simulate,
-    dataset_spec,
-    int_at_least,
-    load_atlas,
-    table,
-    write_json,
-)
-from brake_env.datasets import SPLITS, DatasetSpec, write_dataset
-from brake_env.schema import read_event_log
+from brake_env.cli.common import add_common_args, int_at_least, load_atlas, table, write_json
+from brake_env.cli.demo import DemoContext
+from brake_env.cli.simulate import cmd_simulate, dataset_spec
+from brake_env.data.datasets import SPLITS, DatasetSpec, write_dataset
+from brake_env.data.schema import read_event_log
+from brake_env.model.atlas import Atlas
 from sim2real.diagnose import NONE, DiagnosisConfig, diagnose
 from sim2real.effects import Effect, describe_library, parse_effect, registry
 from sim2real.report import write_outputs
@@ -62,7 +55,7 @@ def cmd_simulate_truth(args: argparse.Namespace) -> dict[str, Any]:
     with tqdm(desc="truth simulation", disable=args.quiet, delay=0.5) as bar:
         logs = simulate_truth(atlas.spec, effects, spec, args.seed, progress=bar.update)
     t_sim = time.perf_counter() - t0
-    from brake_env.datasets import Dataset
+    from brake_env.data.datasets import Dataset
 
     write_dataset(Dataset([], logs, t_sim), out, args.format)
     rows = [["split", "runs", "events", "life mean", "temp mean C", "stop mean m"]]
@@ -299,7 +292,7 @@ def demo_stage(ctx: DemoContext) -> tuple[dict[str, Any], str]:
     ds = DatasetSpec(n_train=6, n_id=0, n_ood_slow=0, n_ood_fast=0, k_mean=2e-5, k_std=2e-6)
     t0 = time.perf_counter()
     logs = simulate_truth(atlas.spec, [effect], TruthSpec(ds), seed=ctx.args.seed)
-    from brake_env.schema import write_event_log
+    from brake_env.data.schema import write_event_log
 
     write_event_log(logs["train"], out / "real.parquet")
     res = diagnose(logs["train"], atlas, seed=ctx.args.seed, rul=rul_scorer(atlas))

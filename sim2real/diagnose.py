@@ -31,8 +31,8 @@ import pandas as pd
 from numpy.typing import NDArray
 from scipy import stats
 
-from brake_env.atlas import Atlas
-from brake_env.simulator import SensorNoise
+from brake_env.model.atlas import Atlas
+from brake_env.model.simulator import SensorNoise
 from sim2real.effects import LIBRARY, Effect
 from sim2real.replay import F64, I64, LogData, Prediction, ReplayModel, prepare_log
 
@@ -401,7 +401,7 @@ def diagnose(
     """Localise, attribute and quantify the gap between a log and the nominal model.
 
     Args:
-        log: A validated event log (``brake_env.schema.read_event_log``), two runs or more.
+        log: A validated event log (``brake_env.data.schema.read_event_log``), two runs or more.
         atlas: The nominal model's atlas.
         candidates: Effect classes to try (default: the library).
         config: Settings.

@@ -39,8 +39,8 @@ from typing import Any, ClassVar
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from brake_env.materials import friction, hardness_mpa
-from brake_env.params import BrakeModel
+from brake_env.model.materials import friction, hardness_mpa
+from brake_env.model.params import BrakeModel
 
 F64 = NDArray[np.float64]
 KINDS = ("in-event", "between-events", "sensor")
@@ -388,7 +388,7 @@ def parse_effect(text: str) -> Effect:
 
 
 class InEventPhysics:
-    """The in-event effects of a list, combined as one ``brake_env.physics.EventModifier``."""
+    """The in-event effects of a list, combined as one ``brake_env.model.physics.EventModifier``."""
 
     def __init__(self, effects: Iterable[Effect], model: BrakeModel) -> None:
         self.effects = [e for e in effects if e.kind == "in-event"]

@@ -33,9 +33,9 @@ import pandas as pd
 from numpy.typing import NDArray
 from scipy.special import ndtr, ndtri
 
-from brake_env.atlas import Atlas
-from brake_env.physics import EventModifier, EventResponse, simulate_events
-from brake_env.simulator import SensorNoise
+from brake_env.model.atlas import Atlas
+from brake_env.model.physics import EventModifier, EventResponse, simulate_events
+from brake_env.model.simulator import SensorNoise
 from sim2real.effects import Effect, InEventPhysics, SensorContext
 
 F64 = NDArray[np.float64]
@@ -87,7 +87,7 @@ class GridInterp:
 
 def critical_volume_fast(model: object, modifier: EventModifier | None, n: int = 48) -> float:
     """Critical volume by a vectorised bracket search (3 rounds of ``n`` volumes)."""
-    from brake_env.params import BrakeModel
+    from brake_env.model.params import BrakeModel
 
     assert isinstance(model, BrakeModel)
     v, m, th = model.envelope.severe_event
@@ -188,7 +188,7 @@ def _severity_layer(atlas: Atlas) -> int:
 
 
 def prepare_log(log: pd.DataFrame, atlas: Atlas) -> LogData:
-    """Arrays of a validated log (``brake_env.schema.read_event_log``), grouped by run."""
+    """Arrays of a validated log (``brake_env.data.schema.read_event_log``), grouped by run."""
     if len(log) == 0:
         raise ValueError("the event log has no rows")
     codes, names = pd.factorize(log["run_id"], sort=False)

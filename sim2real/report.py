@@ -11,7 +11,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
-from brake_env.cli import table, write_json
+from brake_env.cli.common import table, write_json
 from sim2real.diagnose import CHANNELS, DiagnosisResult, Residuals
 
 _UNITS = {"temp": "temperature", "stop": "stopping distance"}

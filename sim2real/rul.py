@@ -17,8 +17,8 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from brake_env.atlas import Atlas
-from brake_env.predictors import predict_log
+from brake_env.model.atlas import Atlas
+from brake_env.prognostics.protocol import predict_log
 from sim2real.effects import Effect
 from sim2real.truth import truth_atlas
 

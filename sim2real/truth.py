@@ -7,12 +7,12 @@
   event's peak temperature and the time since it. The start temperature then varies from
   event to event, so the run goes through atlases at several start temperatures (linear in
   between) in a per-event recurrence vectorised across runs (``_carry_over_runs``), which
-  follows ``brake_env.simulator.simulate_run_reference`` step for step;
+  follows ``brake_env.model.simulator.simulate_run_reference`` step for step;
 - sensor effects transform the logged temperature before the sensor noise is added.
 
 Event times (``time_s``) are always logged: gaps between events are exponential with mean
 ``TruthSpec.mean_gap_s`` from their own random stream, so the other columns are those of
-``brake_env.datasets.make_dataset`` for the same seed (bit for bit with no effect).
+``brake_env.data.datasets.make_dataset`` for the same seed (bit for bit with no effect).
 """
 
 from __future__ import annotations
@@ -25,9 +25,9 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from brake_env.atlas import Atlas, AtlasSpec, cached_atlas
-from brake_env.datasets import DatasetSpec, event_logs, seeded_plan
-from brake_env.simulator import (
+from brake_env.data.datasets import DatasetSpec, event_logs, seeded_plan
+from brake_env.model.atlas import Atlas, AtlasSpec, cached_atlas
+from brake_env.model.simulator import (
     F64,
     AlternatingRoutes,
     Trajectory,

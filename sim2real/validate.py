@@ -23,8 +23,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from brake_env.atlas import Atlas
-from brake_env.datasets import DatasetSpec
+from brake_env.data.datasets import DatasetSpec
+from brake_env.model.atlas import Atlas
 from sim2real.diagnose import NONE, DiagnosisConfig, diagnose
 from sim2real.effects import LIBRARY, Effect, EventState, Param
 from sim2real.rul import rul_scorer
@@ -59,7 +59,7 @@ class ValidationSpec:
         k_mean: Mean Archard coefficient of the truth runs [-] (10x the paper's: short runs).
         with_rul: Score the twin's RUL RMSE before/after (needs ``twin.DigitalTwin``).
         route_block_events: 0 for independent operating conditions (the paper); N > 0 for
-            haul-road and pit blocks of N events (``brake_env.simulator.AlternatingRoutes``).
+            haul-road and pit blocks of N events (``brake_env.model.simulator.AlternatingRoutes``).
     """
 
     seeds_mid: int = 3

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from brake_env.atlas import Atlas, AtlasSpec
+from brake_env.model.atlas import Atlas, AtlasSpec
 
 
 @pytest.fixture(autouse=True, scope="session")

@@ -2,7 +2,7 @@ import json
 
 import pytest
 
-from brake_env.cli import main
+from brake_env.cli.main import main
 
 SMALL = [
     "--n-train",

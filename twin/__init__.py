@@ -1,6 +1,6 @@
 """The digital twin: state estimation, wear-coefficient identification, prognosis (issue 4).
 
-:class:`DigitalTwin` is a predictor of the ``brake_env.predictors`` protocol: a Bayesian
+:class:`DigitalTwin` is a predictor of the ``brake_env.prognostics.protocol`` protocol: a Bayesian
 filter over the Archard coefficient K through the atlas, updated at every braking event.
 :mod:`twin.reference` keeps the paper's literal iterative procedure to test it against.
 """
@@ -9,13 +9,10 @@ from __future__ import annotations
 
 from twin.config import TwinCalibration, TwinConfig
 from twin.twin import DigitalTwin, fit_calibration
-from twin.wear_model import TemperatureTable, WearModel
 
 __all__ = [
     "DigitalTwin",
-    "TemperatureTable",
     "TwinCalibration",
     "TwinConfig",
-    "WearModel",
     "fit_calibration",
 ]

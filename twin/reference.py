@@ -26,11 +26,11 @@ from typing import ClassVar
 import numpy as np
 import pandas as pd
 
-from brake_env.atlas import Atlas
-from brake_env.predictors import MEASURED, EventBatch, Predictor, RULEstimate
-from brake_env.simulator import conditions_from_uniform
+from brake_env.model.atlas import Atlas
+from brake_env.model.simulator import conditions_from_uniform
+from brake_env.model.wear import F64, TemperatureTable, WearModel
+from brake_env.prognostics.protocol import MEASURED, EventBatch, Predictor, RULEstimate
 from twin.twin import FIT_COLUMNS
-from twin.wear_model import F64, TemperatureTable, WearModel
 
 BATCH_EVENTS = 100  # the paper's forward-simulation batch
 

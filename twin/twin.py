@@ -2,7 +2,7 @@
 
 The paper infers the pad volume from each event's temperature through the atlas, inverts
 "events needed to wear from a fresh pad to that volume" for K, and simulates forward to
-failure. Given K, the expected wear path is closed-form (:mod:`twin.wear_model`): after
+failure. Given K, the expected wear path is closed-form (:mod:`brake_env.model.wear`): after
 ``n`` events the pad has done work ``u = K * n`` and sits in the layer where that work
 ends, so the volume after ``n`` events is almost deterministic. The twin therefore keeps a
 posterior over K on a log-spaced grid and updates it at every event with
@@ -38,10 +38,10 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from brake_env.atlas import Atlas
-from brake_env.predictors import EventBatch, Predictor, RULEstimate
+from brake_env.model.atlas import Atlas
+from brake_env.model.wear import TemperatureTable, WearModel
+from brake_env.prognostics.protocol import EventBatch, Predictor, RULEstimate
 from twin.config import TwinCalibration, TwinConfig
-from twin.wear_model import TemperatureTable, WearModel
 
 F64 = NDArray[np.float64]
 FIT_COLUMNS = ("run_id", "event", "speed_kmh", "mass_kg", "slope_rad", "temp_c")
@@ -297,3 +297,8 @@ def _nonneg_line(x: F64, y: F64) -> tuple[float, float]:
     if b <= 0:
         return ym, 0.0
     return ym - b * xm, b
+
+
+def make_twin(atlas: Atlas, seed: int = 0) -> DigitalTwin:
+    """Registry factory (``brakewear.predictors``); the twin draws no random numbers."""
+    return DigitalTwin(atlas)

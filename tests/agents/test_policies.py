@@ -9,9 +9,9 @@ import pytest
 
 from agents.evaluation import compare_policies, oracle_policy, run_episodes, summary_rows
 from agents.policies import AGE_INDEX, FixedInterval, Policy, ReplaceOnFailure, RULThreshold
-from brake_env.env import BrakeWearEnv
-from brake_env.predictors import NoPrognostics
-from brake_env.wrappers import RULObservation
+from brake_env.env.brake_wear import BrakeWearEnv
+from brake_env.env.wrappers import RULObservation
+from brake_env.prognostics.protocol import NoPrognostics
 
 FAST = {"k_mean": 1e-5, "k_std": 1e-6, "decision_interval": 500, "episode_events": 100_000}
 

@@ -12,7 +12,7 @@ import torch
 from agents.cli import compare_and_report
 from agents.compare import CompareConfig
 from agents.train import TrainedAgent, agent_env, load_hyperparams, train_agent
-from brake_env.predictors import NoPrognostics, Oracle
+from brake_env.prognostics.protocol import NoPrognostics, Oracle
 
 FAST = {"k_mean": 1e-5, "k_std": 1e-6, "decision_interval": 500, "episode_events": 30_000}
 TINY = {

@@ -11,7 +11,7 @@ import pandas as pd
 import pytest
 
 from baselines.mlp import MLPConfig, MLPPredictor, features
-from brake_env.predictors import predict_log
+from brake_env.prognostics.protocol import predict_log
 from tests.baselines.synthetic import synthetic_log
 
 FAST = MLPConfig(epochs=40, batch_size=64, learning_rate=1e-2)
@@ -72,8 +72,9 @@ def test_missing_readings_and_bad_config(fitted: MLPPredictor, train: pd.DataFra
 
 def test_torch_is_imported_only_by_the_mlp() -> None:
     code = (
-        "import sys, baselines, brake_env.prognostics, brake_env.prognostics_plots,"
-        " agents.predictors, agents.evaluate_cli; from baselines import PhysicsPredictor;"
+        "import sys, baselines, brake_env.prognostics.evaluation, brake_env.prognostics.plots,"
+        " brake_env.prognostics.registry, brake_env.prognostics.cli;"
+        " from baselines import PhysicsPredictor;"
         " assert 'torch' not in sys.modules, 'torch imported'"
     )
     subprocess.run([sys.executable, "-c", code], check=True)

@@ -7,10 +7,10 @@ import pytest
 
 from baselines._runs import run_lives, true_rul
 from baselines.physics import PhysicsPredictor
-from brake_env.atlas import Atlas
-from brake_env.materials import hardness_mpa
-from brake_env.physics import simulate_events
-from brake_env.predictors import EventBatch, predict_log
+from brake_env.model.atlas import Atlas
+from brake_env.model.materials import hardness_mpa
+from brake_env.model.physics import simulate_events
+from brake_env.prognostics.protocol import EventBatch, predict_log
 from tests.baselines.synthetic import synthetic_log
 
 

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import pytest
 
-from brake_env.atlas import Atlas, AtlasSpec, cached_atlas
-from brake_env.datasets import DatasetSpec
+from brake_env.data.datasets import DatasetSpec
+from brake_env.model.atlas import Atlas, AtlasSpec, cached_atlas
 
 SMALL = AtlasSpec(n_speed=6, n_mass=3, n_slope=5)
 

@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 from numpy.typing import ArrayLike
 
-from brake_env.atlas import Atlas
-from brake_env.cli import main
-from brake_env.schema import EventLogError, read_event_log, write_event_log
+from brake_env.cli.main import main
+from brake_env.data.schema import EventLogError, read_event_log, write_event_log
+from brake_env.model.atlas import Atlas
 from sim2real.diagnose import NONE, DiagnosisConfig, diagnose
 from sim2real.effects import (
     Effect,

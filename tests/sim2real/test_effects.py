@@ -7,8 +7,8 @@ import dataclasses
 import numpy as np
 import pytest
 
-from brake_env.atlas import Atlas, AtlasSpec
-from brake_env.datasets import make_dataset
+from brake_env.data.datasets import make_dataset
+from brake_env.model.atlas import Atlas, AtlasSpec
 from sim2real.effects import (
     LIBRARY,
     Effect,

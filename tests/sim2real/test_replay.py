@@ -6,7 +6,7 @@ import dataclasses
 
 import numpy as np
 
-from brake_env.atlas import Atlas
+from brake_env.model.atlas import Atlas
 from sim2real.diagnose import _sample_rows
 from sim2real.effects import PowerLawWear
 from sim2real.replay import ReplayModel, prepare_log

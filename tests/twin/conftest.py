@@ -5,9 +5,9 @@ from __future__ import annotations
 import pandas as pd
 import pytest
 
-from brake_env.atlas import Atlas
-from brake_env.datasets import Dataset, DatasetSpec, make_dataset
-from brake_env.predictors import predict_log
+from brake_env.data.datasets import Dataset, DatasetSpec, make_dataset
+from brake_env.model.atlas import Atlas
+from brake_env.prognostics.protocol import predict_log
 from twin import DigitalTwin, TwinConfig
 
 # A coarser K grid than the default keeps the tests fast; the filter is the same.

@@ -5,10 +5,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from brake_env.atlas import Atlas
-from brake_env.datasets import Dataset
-from brake_env.predictors import iter_runs
-from twin import DigitalTwin, WearModel
+from brake_env.data.datasets import Dataset
+from brake_env.model.atlas import Atlas
+from brake_env.model.wear import WearModel
+from brake_env.prognostics.protocol import iter_runs
+from twin import DigitalTwin
 from twin.reference import ReferenceTwin, identify_k_iterative, rul_iterative
 
 

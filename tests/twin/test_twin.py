@@ -9,11 +9,12 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from brake_env.atlas import Atlas
-from brake_env.datasets import Dataset
-from brake_env.predictors import EventBatch, iter_runs
+from brake_env.data.datasets import Dataset
+from brake_env.model.atlas import Atlas
+from brake_env.model.wear import TemperatureTable, WearModel
+from brake_env.prognostics.protocol import EventBatch, iter_runs
 from tests.twin.conftest import TEST_CONFIG
-from twin import DigitalTwin, TemperatureTable, TwinCalibration, TwinConfig, WearModel
+from twin import DigitalTwin, TwinCalibration, TwinConfig
 
 
 def _synthetic_run(atlas: Atlas, k: float, sigma: float, seed: int) -> EventBatch:

@@ -1,0 +1,74 @@
+"""What every ``brakewear`` command shares: common options, argument types, the atlas it runs
+on, tables and JSON output. Light on purpose: command modules import it at parse time."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from collections.abc import Callable
+from importlib.metadata import entry_points
+from pathlib import Path
+from typing import Any
+
+from tqdm import tqdm
+
+from brake_env.model.atlas import Atlas, AtlasSpec, cached_atlas
+from brake_env.model.params import BrakeModel
+
+
+def int_at_least(lo: int) -> Callable[[str], int]:
+    """An argparse ``type`` for integers >= ``lo``, with one clear error otherwise."""
+
+    def parse(text: str) -> int:
+        n = int(text)
+        if n < lo:
+            raise argparse.ArgumentTypeError(f"expected an integer >= {lo}, got {text}")
+        return n
+
+    parse.__name__ = f"int>={lo}"  # argparse names the type in its error message
+    return parse
+
+
+def write_json(obj: Any, path: Path) -> Path:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(obj, indent=2, sort_keys=False) + "\n")
+    return path
+
+
+def load_atlas(args: argparse.Namespace, preset: str | None = None) -> Atlas:
+    """The atlas file given by --atlas (its own parameters), else the preset's cached atlas."""
+    if getattr(args, "atlas", None) and preset is None:
+        return Atlas.load(args.atlas)
+    spec = AtlasSpec(model=BrakeModel.preset(preset or args.preset))
+    with tqdm(desc="atlas layers", unit="layer", disable=args.quiet, delay=0.5) as bar:
+        return cached_atlas(spec, args.cache_dir, getattr(args, "rebuild", False), bar.update)
+
+
+def table(rows: list[list[str]]) -> str:
+    widths = [max(len(r[i]) for r in rows) for i in range(len(rows[0]))]
+    lines = ["  ".join(c.rjust(w) for c, w in zip(r, widths, strict=True)) for r in rows]
+    lines.insert(1, "  ".join("-" * w for w in widths))
+    return "\n".join(lines)
+
+
+def add_common_args(sp: argparse.ArgumentParser, out_default: str) -> None:
+    """The options every subcommand takes (plug-in commands use them too)."""
+    sp.add_argument("--out", default=out_default, help="output directory")
+    sp.add_argument("--seed", type=int, default=0, help="random seed (same seed, same files)")
+    sp.add_argument(
+        "--preset",
+        default="hot-duty",
+        choices=["hot-duty", "cold-start"],
+        help="brake calibration (docs/calibration.md)",
+    )
+    sp.add_argument(
+        "--cache-dir",
+        default=None,
+        help="atlas cache (default $BRAKEWEAR_CACHE_DIR or ~/.cache/brakewear)",
+    )
+    sp.add_argument("--quiet", action="store_true", help="no progress bars")
+
+
+def plugins(group: str) -> list[Any]:
+    """Installed plug-ins of ``group``, ordered by name (demo stages are named "NN-what")."""
+    return sorted(entry_points(group=group), key=lambda ep: ep.name)

@@ -1,0 +1,39 @@
+"""brakewear: brake-pad wear simulation and predictive-maintenance testbed."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Sequence
+
+from brake_env.cli import demo, simulate
+from brake_env.cli.common import plugins
+from brake_env.prognostics import cli as evaluate
+
+
+def build_parser() -> argparse.ArgumentParser:
+    fmt = argparse.ArgumentDefaultsHelpFormatter
+    p = argparse.ArgumentParser(prog="brakewear", description=__doc__, formatter_class=fmt)
+    sub = p.add_subparsers(dest="command", required=True)
+    simulate.register(sub)
+    demo.register(sub)
+    evaluate.register(sub)
+    # Commands of the downstream packages (twin, baselines, agents, sim2real) register
+    # themselves as plug-ins, so brake_env never imports them (DESIGN 2: imports flow one way).
+    for ep in plugins("brakewear.commands"):
+        ep.load()(sub)
+    return p
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        args.func(args)
+    except (ValueError, FileNotFoundError) as e:
+        print(f"brakewear {args.command}: error: {e}", file=sys.stderr)
+        return 2
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,171 @@
+"""``brakewear atlas`` and ``brakewear simulate``: the atlas and the run-to-failure datasets."""
+
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+from typing import Any
+
+from tqdm import tqdm
+
+from brake_env.cli.common import add_common_args, int_at_least, load_atlas, table, write_json
+from brake_env.data.datasets import SPLITS, DatasetSpec, make_dataset, write_dataset
+from brake_env.data.summary import atlas_summary, dataset_summary
+
+FORMATS = ("parquet", "csv")
+
+
+def _formats(text: str) -> tuple[str, ...]:
+    out = tuple(f.strip() for f in text.split(",") if f.strip())
+    bad = [f for f in out if f not in FORMATS]
+    if bad or not out:
+        raise argparse.ArgumentTypeError(f"--format takes parquet, csv or both, got {text!r}")
+    return out
+
+
+def add_simulation_args(sp: argparse.ArgumentParser, fmt_default: str) -> None:
+    """Options of the datasets: formats, run counts, K distribution, duty cycle."""
+    sp.add_argument(
+        "--format",
+        type=_formats,
+        default=_formats(fmt_default),
+        help="event-log formats: parquet, csv or parquet,csv",
+    )
+    for name, n in (("train", 10), ("id", 10), ("ood-slow", 5), ("ood-fast", 5)):
+        sp.add_argument(f"--n-{name}", type=int_at_least(0), default=n, help=f"{name} runs")
+    sp.add_argument("--k-mean", type=float, default=2e-6, help="mean Archard coefficient")
+    sp.add_argument("--k-std", type=float, default=2e-7, help="std of the coefficient")
+    sp.add_argument(
+        "--interpolate-layers",
+        action="store_true",
+        help="blend adjacent atlas layers by volume (paper footnote 1)",
+    )
+    sp.add_argument(
+        "--route-block-events",
+        type=int_at_least(0),
+        default=0,
+        help="0: independent operating conditions; N: haul-road and pit blocks of N events",
+    )
+
+
+def cmd_atlas(args: argparse.Namespace) -> dict[str, Any]:
+    from brake_env.data.plots import plot_calibration
+
+    out = Path(args.out)
+    atlas = load_atlas(args)
+    atlas.save(out / "atlas.npz")
+    info = atlas_summary(atlas)
+    info["build_seconds"] = atlas.build_seconds
+    info["preset"] = args.preset
+    write_json(info, out / "atlas.json")
+    other = "cold-start" if args.preset == "hot-duty" else "hot-duty"
+    # The calibration figure sets the other preset beside this one (DESIGN 3's contrast).
+    plot_calibration(atlas, out / "calibration.png", compare={other: load_atlas(args, other)})
+    print(
+        table(
+            [
+                [
+                    "preset",
+                    "layers",
+                    "failure volume",
+                    "wear end/fresh",
+                    "T fresh",
+                    "T end",
+                    "build s",
+                ],
+                [
+                    args.preset,
+                    str(atlas.n_layers),
+                    f"{atlas.failure_volume:.2%} ({atlas.failure_mode})",
+                    f"{info['wear_per_event_ratio_end_fresh']:.3f}",
+                    f"{info['mean_temp_c_fresh']:.0f} C",
+                    f"{info['mean_temp_c_end']:.0f} C",
+                    f"{atlas.build_seconds:.2f}",
+                ],
+            ]
+        )
+    )
+    print(f"wrote {out / 'atlas.npz'}, atlas.json, calibration.png")
+    return info
+
+
+def dataset_spec(args: argparse.Namespace) -> DatasetSpec:
+    """The DatasetSpec of the ``--n-*``, ``--k-*``, ``--interpolate-layers`` and
+    ``--route-block-events`` options."""
+    return DatasetSpec(
+        n_train=args.n_train,
+        n_id=args.n_id,
+        n_ood_slow=args.n_ood_slow,
+        n_ood_fast=args.n_ood_fast,
+        k_mean=args.k_mean,
+        k_std=args.k_std,
+        interpolate_layers=args.interpolate_layers,
+        route_block_events=args.route_block_events,
+    )
+
+
+def cmd_simulate(args: argparse.Namespace) -> dict[str, Any]:
+    from brake_env.data.plots import plot_trace, plot_volume_trajectories
+
+    out = Path(args.out)
+    atlas = load_atlas(args)
+    spec = dataset_spec(args)
+    with tqdm(total=atlas.n_layers, desc="simulate", unit="layer", disable=args.quiet) as bar:
+        ds = make_dataset(atlas, spec, args.seed, progress=bar.update)
+    t0 = time.perf_counter()
+    n_files = len(args.format) * len(SPLITS)
+    with tqdm(total=n_files, desc="write logs", unit="file", disable=args.quiet) as bar:
+        write_dataset(ds, out, args.format, progress=lambda _: bar.update())
+    summary = dataset_summary(ds, atlas, args.seed)
+    summary["timing_s"]["write"] = time.perf_counter() - t0
+    summary["files"] = sorted(f"{s}.{f}" for s in SPLITS for f in args.format)
+    write_json(summary, out / "summary.json")
+    if ds.runs:
+        plot_volume_trajectories(ds.runs, out / "figures" / "volume_trajectories.png")
+        split, run_id, _ = next((r for r in ds.runs if r[1].startswith("ood-fast")), ds.runs[0])
+        plot_trace(ds.logs[split], run_id, out / "figures" / f"trace_{run_id}.png")
+    rows = [["split", "runs", "life mean", "life std", "life min", "life max"]]
+    for split, life in summary["life_events"].items():
+        rows.append(
+            [
+                split,
+                str(life["runs"]),
+                f"{life['mean']:.0f}",
+                f"{life['std']:.0f}",
+                f"{life['min']:.0f}",
+                f"{life['max']:.0f}",
+            ]
+        )
+    print(table(rows))
+    print(
+        f"events: {summary['events_total']}  simulate: {ds.simulate_seconds:.2f} s"
+        f"  ({summary['events_total'] / max(ds.simulate_seconds, 1e-9):.3g} events/s)"
+        f"  wear end/fresh: {summary['wear_per_event_ratio_end_fresh_runs']['mean']:.3f}"
+        f"  failure volume: {summary['failure_volume_frac']['mean']:.2%}"
+    )
+    print(f"wrote {out}/{{{','.join(summary['files'])}}}, summary.json, figures/")
+    return summary
+
+
+def register(sub: argparse._SubParsersAction[Any]) -> None:
+    """Add ``atlas`` and ``simulate`` to the ``brakewear`` parser."""
+    fmt = argparse.ArgumentDefaultsHelpFormatter
+    a = sub.add_parser(
+        "atlas",
+        formatter_class=fmt,
+        help="build (or load from cache) the atlas; calibration figure beside the other preset",
+    )
+    add_common_args(a, "out/atlas")
+    a.add_argument("--rebuild", action="store_true", help="ignore the cache")
+    a.set_defaults(func=cmd_atlas)
+
+    s = sub.add_parser(
+        "simulate",
+        formatter_class=fmt,
+        help="simulate the train / ID / OOD run-to-failure datasets",
+    )
+    add_common_args(s, "out/data")
+    s.add_argument("--atlas", default=None, help="atlas .npz to use instead of the cache")
+    add_simulation_args(s, "parquet,csv")
+    s.set_defaults(func=cmd_simulate)

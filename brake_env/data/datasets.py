@@ -1,0 +1,250 @@
+"""Run-to-failure datasets as the paper builds them (paper 2.1.6), as event logs.
+
+Training and in-distribution (ID) test pads draw K ~ N(mu_K, sigma_K^2); the
+out-of-distribution (OOD) pads come from means shifted by -6 sigma (slow wear) and +6 sigma
+(fast wear). Each run is simulated to failure through the atlas, sensor noise is added, and
+the runs are written as event logs (DESIGN 4) with ground-truth columns.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from brake_env._validate import check_positive
+from brake_env.data.schema import SENSOR_CHANNELS, write_event_log
+from brake_env.model.atlas import Atlas
+from brake_env.model.simulator import (
+    F64,
+    AlternatingRoutes,
+    SensorNoise,
+    Trajectory,
+    simulate_runs,
+)
+
+SPLITS = ("train", "id", "ood")
+
+
+@dataclass(frozen=True)
+class DatasetSpec:
+    """How many runs of which wear coefficient (paper 2.1.6).
+
+    Attributes:
+        n_train: Training runs, K ~ N(k_mean, k_std^2).
+        n_id: In-distribution test runs, same distribution.
+        n_ood_slow: OOD runs with mean k_mean - ood_shift_sigma * k_std (slow wear).
+        n_ood_fast: OOD runs with mean k_mean + ood_shift_sigma * k_std (fast wear).
+        k_mean: Mean Archard coefficient [-].
+        k_std: Standard deviation of K [-].
+        ood_shift_sigma: OOD mean shift in units of k_std [-].
+        noise: Sensor noise added to the logged channels.
+        interpolate_layers: Blend adjacent atlas layers by volume (paper footnote 1).
+        route_block_events: 0 draws each event's conditions independently (the paper);
+            N > 0 alternates haul-road and pit blocks of N events (``AlternatingRoutes``).
+    """
+
+    n_train: int = 10
+    n_id: int = 10
+    n_ood_slow: int = 5
+    n_ood_fast: int = 5
+    k_mean: float = 2e-6
+    k_std: float = 2e-7
+    ood_shift_sigma: float = 6.0
+    noise: SensorNoise = field(default_factory=SensorNoise)
+    interpolate_layers: bool = False
+    route_block_events: int = 0
+
+    def __post_init__(self) -> None:
+        for name in ("n_train", "n_id", "n_ood_slow", "n_ood_fast"):
+            n = getattr(self, name)
+            if not isinstance(n, int) or n < 0:
+                raise ValueError(f"DatasetSpec.{name} must be an int >= 0, got {n!r}")
+        if self.n_train + self.n_id + self.n_ood_slow + self.n_ood_fast == 0:
+            raise ValueError("DatasetSpec: no runs to simulate (all run counts are 0)")
+        check_positive(self, "k_mean", "k_std")
+        if not isinstance(self.route_block_events, int) or self.route_block_events < 0:
+            raise ValueError(
+                "DatasetSpec.route_block_events must be an int >= 0, got"
+                f" {self.route_block_events!r}"
+            )
+        if self.k_mean - (self.ood_shift_sigma + 3.0) * self.k_std <= 0 and self.n_ood_slow:
+            raise ValueError("DatasetSpec: the slow OOD mean is too close to K = 0")
+
+    @property
+    def duty(self) -> AlternatingRoutes | None:
+        """The duty cycle of the runs (None: independent conditions)."""
+        n = self.route_block_events
+        return AlternatingRoutes(n) if n else None
+
+    def plan(self, rng: np.random.Generator) -> list[tuple[str, str, float]]:
+        """(split, run_id, K) of every run, K drawn from ``rng``."""
+        mu, sd, shift = self.k_mean, self.k_std, self.ood_shift_sigma * self.k_std
+        draws = [
+            ("train", "train", mu, self.n_train),
+            ("id", "id", mu, self.n_id),
+            ("ood", "ood-slow", mu - shift, self.n_ood_slow),
+            ("ood", "ood-fast", mu + shift, self.n_ood_fast),
+        ]
+        runs = []
+        for split, prefix, mean, n in draws:
+            for i, k in enumerate(rng.normal(mean, sd, n)):
+                if k <= 0:
+                    raise ValueError(f"drew a non-positive K for {prefix}-{i:02d}; lower k_std")
+                runs.append((split, f"{prefix}-{i:02d}", float(k)))
+        return runs
+
+
+@dataclass(frozen=True, eq=False)
+class Dataset:
+    """Simulated runs, ground truth and logs.
+
+    Attributes:
+        runs: (split, run_id, trajectory) per run, in plan order.
+        logs: Split name -> event log (noisy channels plus ground truth).
+        simulate_seconds: Wall time of the coupled simulation.
+        interpolate_layers: Whether adjacent layers were blended.
+        route_block_events: The alternating-route block length (0: independent draws).
+    """
+
+    runs: list[tuple[str, str, Trajectory]]
+    logs: dict[str, pd.DataFrame]
+    simulate_seconds: float
+    interpolate_layers: bool = False
+    route_block_events: int = 0
+
+
+def measure(
+    t: Trajectory,
+    noise: SensorNoise,
+    rng: np.random.Generator,
+    out: dict[str, F64] | None = None,
+) -> dict[str, F64]:
+    """What the sensors log for each event of ``t``: the true values plus Gaussian noise.
+
+    Channels in schema order (``SENSOR_CHANNELS``), each drawn from ``rng`` in that order
+    only when its noise is > 0. Energy and distance are never negative, so noise around a
+    small true value is floored at 0. Writes into ``out``'s arrays when given.
+    """
+    truth = {
+        "speed_kmh": (t.speed_mps * 3.6, noise.speed_kmh),
+        "mass_kg": (t.mass_kg, noise.mass_kg),
+        "slope_rad": (t.slope_rad, noise.slope_rad),
+        "energy_j": (t.energy_j, noise.energy_j),
+        "temp_c": (t.temp_mean_c, noise.temp_c),
+        "stop_dist_m": (t.stop_dist_m, noise.stop_dist_m),
+    }
+    out = out if out is not None else {k: np.empty(t.n_events) for k in SENSOR_CHANNELS}
+    for k, (x, sigma) in truth.items():
+        out[k][:] = x
+        if sigma > 0:
+            out[k] += rng.normal(0.0, sigma, t.n_events)
+    np.maximum(out["energy_j"], 0.0, out=out["energy_j"])
+    np.maximum(out["stop_dist_m"], 0.0, out=out["stop_dist_m"])
+    return out
+
+
+def event_logs(
+    runs: list[tuple[str, Trajectory]], noise: SensorNoise, rngs: list[np.random.Generator]
+) -> pd.DataFrame:
+    """One event log for several runs: measured channels with noise, and ground truth.
+
+    Columns are filled in place, run after run, and handed to pandas without a copy: the
+    logs of a full dataset are several hundred MB.
+    """
+    sizes = np.array([t.n_events for _, t in runs], dtype=np.int64)
+    ends = np.cumsum(sizes)
+    total = int(ends[-1]) if sizes.size else 0
+    names = (*SENSOR_CHANNELS, "volume_frac", "wear_coeff")  # the float columns
+    cols = {k: np.empty(total) for k in names}
+    event, rul = np.empty(total, dtype=np.int64), np.empty(total, dtype=np.int64)
+    failed = np.zeros(total, dtype=bool)
+    for (_, t), rng, end, n in zip(runs, rngs, ends, sizes, strict=True):
+        sl = slice(int(end - n), int(end))
+        measure(t, noise, rng, out={k: cols[k][sl] for k in SENSOR_CHANNELS})
+        cols["volume_frac"][sl] = t.volume_frac
+        cols["wear_coeff"][sl] = t.wear_coeff
+        event[sl] = np.arange(n)
+        rul[sl] = t.rul_events
+        failed[int(end) - 1] = True
+    run_id = pd.Categorical.from_codes(
+        np.repeat(np.arange(len(runs), dtype=np.int32), sizes), pd.Index([rid for rid, _ in runs])
+    )
+    data = {"run_id": run_id, "event": event}
+    data.update((k, cols[k]) for k in SENSOR_CHANNELS)
+    data.update(
+        volume_frac=cols["volume_frac"],
+        wear_coeff=cols["wear_coeff"],
+        rul_events=rul,
+        failed=failed,
+    )
+    return pd.DataFrame(data, copy=False)
+
+
+def seeded_plan(
+    spec: DatasetSpec, seed: int
+) -> tuple[list[tuple[str, str, float]], list[list[np.random.SeedSequence]]]:
+    """The runs of ``spec`` with their K, and per run its (conditions, noise) seeds.
+
+    ``SeedSequence(seed)`` spawns one stream for the K draws and one child per run, which
+    spawns the run's operating-condition and sensor-noise streams.
+    """
+    k_seq, runs_seq = np.random.SeedSequence(seed).spawn(2)
+    plan = spec.plan(np.random.default_rng(k_seq))
+    return plan, [s.spawn(2) for s in runs_seq.spawn(len(plan))]
+
+
+def make_dataset(
+    atlas: Atlas,
+    spec: DatasetSpec | None = None,
+    seed: int = 0,
+    progress: Callable[[int], object] | None = None,
+) -> Dataset:
+    """Simulate every run of ``spec`` to failure and build its event logs.
+
+    Randomness as :func:`seeded_plan` lays it out: the same seed gives the same data.
+    """
+    spec = spec or DatasetSpec()
+    plan, per_run = seeded_plan(spec, seed)
+    t0 = time.perf_counter()
+    trajs = simulate_runs(
+        atlas,
+        [k for _, _, k in plan],
+        [c for c, _ in per_run],
+        progress,
+        spec.interpolate_layers,
+        spec.duty,
+    )
+    sim_s = time.perf_counter() - t0
+    runs = [(split, rid, t) for (split, rid, _), t in zip(plan, trajs, strict=True)]
+    logs = {}
+    for split in SPLITS:
+        idx = [i for i, r in enumerate(runs) if r[0] == split]
+        logs[split] = event_logs(
+            [(runs[i][1], runs[i][2]) for i in idx],
+            spec.noise,
+            [np.random.default_rng(per_run[i][1]) for i in idx],
+        )
+    return Dataset(runs, logs, sim_s, spec.interpolate_layers, spec.route_block_events)
+
+
+def write_dataset(
+    ds: Dataset,
+    out_dir: str | Path,
+    formats: tuple[str, ...] = ("parquet", "csv"),
+    progress: Callable[[str], object] | None = None,
+) -> list[Path]:
+    """Write each split as ``{split}.parquet`` / ``{split}.csv`` under ``out_dir``."""
+    paths = []
+    for split, df in ds.logs.items():
+        for fmt in formats:
+            if fmt not in ("parquet", "csv"):
+                raise ValueError(f"unknown format {fmt!r}; valid are ['csv', 'parquet']")
+            paths.append(write_event_log(df, Path(out_dir) / f"{split}.{fmt}"))
+            if progress:
+                progress(f"{split}.{fmt}")
+    return paths

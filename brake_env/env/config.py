@@ -1,0 +1,199 @@
+"""Configuration of BrakeWear-v0: cost weights, the wear regime of new pads, episode shape.
+
+Frozen, validated dataclasses. ``EnvConfig.from_kwargs`` is how ``gym.make`` keyword
+arguments arrive: an unknown name or a value out of range raises one ``ValueError`` that
+names it, instead of being silently accepted.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+from typing import Any, Literal
+
+import numpy as np
+
+from brake_env._validate import check_nonnegative, check_positive, check_range, from_dict
+from brake_env.model.simulator import SensorNoise
+
+REGIMES = ("id", "ood", "mixed")
+PRESETS = ("hot-duty", "cold-start")
+MAX_DECISION_INTERVAL = 10_000  # well below the shortest pad life (~7e4 events at +6 sigma)
+
+
+@dataclass(frozen=True)
+class CostWeights:
+    """Cost of each maintenance outcome, in currency units; the keys of ``info["costs"]``.
+
+    The reward of a step is ``revenue`` minus the sum of the other terms.
+
+    Attributes:
+        planned_replacement: Parts and labour of a replacement the policy asks for.
+        corrective_replacement: Parts and labour of a replacement forced by a failure.
+        downtime: Lost production while the failed vehicle waits for repair.
+        damage: Secondary damage of a brake failure (disc, caliper, safety incident).
+        revenue: Operating revenue per braking event (0: pure cost minimisation).
+    """
+
+    planned_replacement: float = 1000.0
+    corrective_replacement: float = 1000.0
+    downtime: float = 4000.0
+    damage: float = 5000.0
+    revenue: float = 0.0
+
+    def __post_init__(self) -> None:
+        check_nonnegative(self, *(f.name for f in dataclasses.fields(self)))
+
+    @property
+    def failure(self) -> float:
+        """Total cost of one failure."""
+        return self.corrective_replacement + self.downtime + self.damage
+
+    @property
+    def failure_to_planned(self) -> float:
+        return self.failure / self.planned_replacement if self.planned_replacement else np.inf
+
+    @classmethod
+    def with_ratio(cls, failure_to_planned: float, planned: float = 1000.0) -> CostWeights:
+        """Weights whose failure costs ``failure_to_planned`` planned replacements, split like
+        the defaults (1 : 4 : 5 between corrective replacement, downtime and damage)."""
+        if not failure_to_planned >= 1.0:
+            raise ValueError(f"failure_to_planned must be >= 1, got {failure_to_planned}")
+        total = failure_to_planned * planned
+        return cls(planned, 0.1 * total, 0.4 * total, 0.5 * total)
+
+
+@dataclass(frozen=True)
+class PadRegime:
+    """How the Archard coefficient K of each new pad is drawn (paper 2.1.6).
+
+    Attributes:
+        kind: ``id`` (K ~ N(k_mean, k_std^2)), ``ood`` (mean shifted by -/+ ood_shift_sigma *
+            k_std with equal odds: slow or fast wear) or ``mixed`` (OOD with probability
+            ``ood_share``, else ID).
+        ood_share: Probability that a new pad is OOD in the ``mixed`` regime [-].
+        k_mean: Mean K of in-distribution pads [-].
+        k_std: Standard deviation of K around its mean [-].
+        ood_shift_sigma: OOD mean shift in units of ``k_std`` [-].
+    """
+
+    kind: Literal["id", "ood", "mixed"] = "id"
+    ood_share: float = 0.5
+    k_mean: float = 2e-6
+    k_std: float = 2e-7
+    ood_shift_sigma: float = 6.0
+
+    def __post_init__(self) -> None:
+        if self.kind not in REGIMES:
+            raise ValueError(f"regime must be one of {list(REGIMES)}, got {self.kind!r}")
+        check_range(self, "ood_share", 0.0, 1.0)
+        check_positive(self, "k_mean", "k_std")
+        check_nonnegative(self, "ood_shift_sigma")
+        if self.k_mean - self.ood_shift_sigma * self.k_std <= 0 and self.kind != "id":
+            raise ValueError("PadRegime: the slow OOD mean k_mean - shift * k_std is <= 0")
+
+    def draw(self, rng: np.random.Generator) -> tuple[float, str]:
+        """K of one new pad and its label (``id``, ``ood-slow`` or ``ood-fast``)."""
+        ood = self.kind == "ood" or (self.kind == "mixed" and rng.random() < self.ood_share)
+        label, mean = "id", self.k_mean
+        if ood:
+            fast = rng.random() < 0.5
+            label = "ood-fast" if fast else "ood-slow"
+            mean += (1 if fast else -1) * self.ood_shift_sigma * self.k_std
+        while True:  # a normal draw can in principle be <= 0; redraw (never with the defaults)
+            k = float(rng.normal(mean, self.k_std))
+            if k > 0:
+                return k, label
+
+
+@dataclass(frozen=True)
+class EnvConfig:
+    """Everything BrakeWear-v0 can be configured with (the keyword arguments of ``gym.make``).
+
+    Attributes:
+        decision_interval: Braking events per step (1 allowed) [events].
+        episode_events: Braking events per episode; the episode is truncated after them
+            (several pad lives: a pad lasts ~1.2e5 events at the default K) [events].
+        regime: Wear regime of new pads: ``id``, ``ood`` or ``mixed``.
+        ood_share: Share of OOD pads in the ``mixed`` regime [-].
+        k_mean, k_std, ood_shift_sigma: Distribution of K (see :class:`PadRegime`).
+        costs: Cost weights (a :class:`CostWeights` or a dict of its fields).
+        noise: Sensor noise of the observed channels (a :class:`SensorNoise` or a dict).
+        preset: Brake calibration of the default atlas (``hot-duty`` or ``cold-start``).
+        interpolate_layers: Blend adjacent atlas layers by volume (paper footnote 1).
+        cache_pads: Keep the last this many simulated pads (~7.5 MB each at the default K)
+            so that replaying a seed does not simulate its pads again; 0 keeps none. A pure
+            speed option: the pads are the same either way.
+        pad_pool: Draw every new pad from a fixed pool of this many pads (made from
+            ``pad_pool_seed``, shared by all envs of the process with the same settings),
+            so each is simulated, and a precomputed predictor run over it, once. For
+            training agents on a finite set of pads; 0 (default) draws a fresh pad each
+            time.
+        pad_pool_seed: Seed of the pool's pads.
+    """
+
+    decision_interval: int = 500
+    episode_events: int = 500_000
+    regime: Literal["id", "ood", "mixed"] = "id"
+    ood_share: float = 0.5
+    k_mean: float = 2e-6
+    k_std: float = 2e-7
+    ood_shift_sigma: float = 6.0
+    costs: CostWeights = field(default_factory=CostWeights)
+    noise: SensorNoise = field(default_factory=SensorNoise)
+    preset: str = "hot-duty"
+    interpolate_layers: bool = False
+    cache_pads: int = 0
+    pad_pool: int = 0
+    pad_pool_seed: int = 0
+
+    def __post_init__(self) -> None:
+        for name, lo, hi in (
+            ("decision_interval", 1, MAX_DECISION_INTERVAL),
+            ("episode_events", 2, 10**9),
+            ("cache_pads", 0, 10_000),
+            ("pad_pool", 0, 10_000),
+            ("pad_pool_seed", 0, 2**63 - 1),
+        ):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, int | np.integer) or not lo <= v <= hi:
+                raise ValueError(f"BrakeWear-v0: {name} must be an int in [{lo}, {hi}], got {v!r}")
+        if self.preset not in PRESETS:
+            raise ValueError(
+                f"BrakeWear-v0: preset must be one of {list(PRESETS)}, got {self.preset!r}"
+            )
+        for name, kind in (("costs", CostWeights), ("noise", SensorNoise)):
+            if not isinstance(getattr(self, name), kind):
+                raise TypeError(
+                    f"BrakeWear-v0: {name} must be {kind.__name__} or a dict of its fields,"
+                    f" got {getattr(self, name)!r}"
+                )
+        if not isinstance(self.interpolate_layers, bool):
+            raise ValueError(
+                f"BrakeWear-v0: interpolate_layers must be a bool, got {self.interpolate_layers!r}"
+            )
+        self.pad_regime  # validates the regime fields  # noqa: B018
+
+    @property
+    def pad_regime(self) -> PadRegime:
+        return PadRegime(self.regime, self.ood_share, self.k_mean, self.k_std, self.ood_shift_sigma)
+
+    @property
+    def steps_per_episode(self) -> int:
+        """Steps until truncation (the reset observes the pad's first event)."""
+        return -(-(self.episode_events - 1) // self.decision_interval)
+
+    @classmethod
+    def from_kwargs(cls, base: EnvConfig | None = None, **kwargs: Any) -> EnvConfig:
+        """``base`` (default config if None) with ``kwargs`` replaced, all validated."""
+        names = {f.name for f in dataclasses.fields(cls)}
+        unknown = sorted(set(kwargs) - names)
+        if unknown:
+            raise ValueError(
+                f"BrakeWear-v0: unknown argument(s) {unknown}; valid are {sorted(names)}"
+            )
+        if isinstance(kwargs.get("costs"), dict):
+            kwargs["costs"] = from_dict(CostWeights, kwargs["costs"])
+        if isinstance(kwargs.get("noise"), dict):
+            kwargs["noise"] = from_dict(SensorNoise, kwargs["noise"])
+        return dataclasses.replace(base or cls(), **kwargs)

@@ -1,0 +1,250 @@
+"""``brakewear evaluate``: the prognostics evaluation (registered as a plug-in).
+
+Reads the train / ID / OOD event logs of ``brakewear simulate``, fits the chosen predictors
+on the training runs, scores them on the test runs (:mod:`brake_env.prognostics.evaluation`), and
+writes ``metrics.json``, ``table.md``, the figures of paper Figures 10-13 and the MLP's
+weights. The same evaluation is the demo stage ``30-evaluate``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+from tqdm import tqdm
+
+from brake_env.cli.common import add_common_args, int_at_least, load_atlas, write_json
+from brake_env.cli.demo import DemoContext
+from brake_env.data.datasets import SPLITS
+from brake_env.data.schema import read_event_log
+from brake_env.prognostics.evaluation import Evaluation, EvaluationConfig, evaluate
+from brake_env.prognostics.plots import plot_all
+from brake_env.prognostics.protocol import Predictor
+from brake_env.prognostics.registry import make_predictor, predictor_names
+
+DEFAULT_PREDICTORS = ("physics", "data", "twin")
+
+
+def _predictor_list(text: str) -> tuple[str, ...]:
+    names = tuple(dict.fromkeys(n.strip() for n in text.split(",") if n.strip()))
+    bad = [n for n in names if n not in predictor_names()]
+    if bad or not names:
+        raise argparse.ArgumentTypeError(
+            f"--predictors takes a comma-separated subset of {','.join(predictor_names())},"
+            f" got {text!r}"
+        )
+    return names
+
+
+def register(sub: argparse._SubParsersAction[Any]) -> None:
+    """Add ``evaluate`` to the ``brakewear`` parser."""
+    e = sub.add_parser(
+        "evaluate",
+        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
+        help="fit RUL predictors on the training runs and score them on ID and OOD runs",
+    )
+    add_common_args(e, "out/evaluate")
+    e.add_argument(
+        "--data",
+        required=True,
+        help="directory holding {train,id,ood}.parquet (or .csv), as brakewear simulate writes",
+    )
+    e.add_argument(
+        "--predictors",
+        type=_predictor_list,
+        default=DEFAULT_PREDICTORS,
+        help=f"comma-separated predictors among {','.join(predictor_names())}",
+    )
+    e.add_argument("--atlas", default=None, help="atlas .npz to use instead of the cache")
+    e.add_argument(
+        "--batch-events",
+        type=int_at_least(0),
+        default=0,
+        help="events per predictor update (0: each run in one batch; same numbers, faster)",
+    )
+    e.add_argument(
+        "--mlp-epochs", type=int_at_least(1), default=None, help="MLP epochs (default: its config)"
+    )
+    e.set_defaults(func=cmd_evaluate)
+
+
+def find_logs(data_dir: str | Path) -> dict[str, Path]:
+    """``{split}.parquet`` (else ``.csv``) of every split in ``data_dir``."""
+    d = Path(data_dir)
+    if not d.is_dir():
+        raise FileNotFoundError(f"--data {d}: no such directory")
+    found, missing = {}, []
+    for split in SPLITS:
+        path = next((p for p in (d / f"{split}.parquet", d / f"{split}.csv") if p.is_file()), None)
+        if path is None:
+            missing.append(f"{split}.parquet")
+        else:
+            found[split] = path
+    if missing:
+        raise FileNotFoundError(
+            f"--data {d}: missing {', '.join(missing)} (or .csv);"
+            " write them with brakewear simulate"
+        )
+    return found
+
+
+def _fit_all(
+    predictors: dict[str, Predictor], train: Any, quiet: bool, skipped: dict[str, str] | None
+) -> dict[str, float]:
+    """Fit every predictor; with ``skipped`` given, one that cannot be fitted on these
+    training runs (ValueError) is dropped and its reason recorded instead of raising."""
+    seconds = {}
+    for name, pred in list(predictors.items()):
+        t0 = time.perf_counter()
+        epochs = getattr(getattr(pred, "config", None), "epochs", None)
+        if hasattr(pred, "progress") and epochs:
+            with tqdm(total=epochs, desc=f"fit {name}", unit="epoch", disable=quiet) as bar:
+                setattr(pred, "progress", bar.update)  # noqa: B010 - MLP epoch callback
+                pred.fit(train)
+                setattr(pred, "progress", None)  # noqa: B010
+        else:
+            if not quiet:
+                print(f"fit {name} ...", file=sys.stderr)
+            try:
+                pred.fit(train)
+            except ValueError as e:
+                if skipped is None:
+                    raise ValueError(f"fitting {name}: {e}") from e
+                print(f"evaluate: skipping {name}: {e}", file=sys.stderr)
+                skipped[name] = str(e)
+                del predictors[name]
+                continue
+        seconds[name] = time.perf_counter() - t0
+    return seconds
+
+
+def _check_atlas(data_dir: Path, atlas_hash: str) -> None:
+    """Warn when summary.json says the logs were simulated with another atlas."""
+    summary = data_dir / "summary.json"
+    if not summary.is_file():
+        return
+    try:
+        data_hash = json.loads(summary.read_text()).get("atlas", {}).get("hash")
+    except (json.JSONDecodeError, AttributeError):
+        return
+    if data_hash and data_hash != atlas_hash:
+        print(
+            f"evaluate: warning: {data_dir} was simulated with atlas {data_hash[:12]}, the"
+            f" predictors use atlas {atlas_hash[:12]} (pass the data's atlas with --atlas)",
+            file=sys.stderr,
+        )
+
+
+def cmd_evaluate(args: argparse.Namespace, skip_unfittable: bool = False) -> dict[str, Any]:
+    """``brakewear evaluate``; ``skip_unfittable`` drops predictors that fail to fit (demo)."""
+    t_start = time.perf_counter()
+    out = Path(args.out)
+    paths = find_logs(args.data)
+    t0 = time.perf_counter()
+    logs = {split: read_event_log(p) for split, p in paths.items()}
+    read_s = time.perf_counter() - t0
+    atlas = load_atlas(args)
+    _check_atlas(Path(args.data), atlas.content_hash)
+    predictors = {n: make_predictor(n, atlas, args.seed) for n in args.predictors}
+    if args.mlp_epochs and "data" in predictors:
+        import dataclasses
+
+        mlp = predictors["data"]
+        mlp.config = dataclasses.replace(mlp.config, epochs=args.mlp_epochs)  # type: ignore[attr-defined]
+
+    skipped: dict[str, str] | None = {} if skip_unfittable else None
+    fit_s = _fit_all(predictors, logs["train"], args.quiet, skipped)
+    if not predictors:
+        raise ValueError(f"no predictor could be fitted: {skipped}")
+    n_events = sum(len(logs[s]) for s in ("id", "ood")) * len(predictors)
+    t0 = time.perf_counter()
+    with tqdm(
+        total=n_events, desc="predict", unit="event", unit_scale=True, disable=args.quiet
+    ) as bar:
+        ev = evaluate(
+            predictors,
+            logs,
+            EvaluationConfig(batch_events=args.batch_events),
+            fit=False,
+            progress=lambda _name, n: bar.update(n),
+        )
+    predict_s = time.perf_counter() - t0
+    for name, s in fit_s.items():
+        ev.metrics["models"][name]["fit_seconds"] = s
+
+    saved = {}
+    if "data" in predictors:
+        npz, js = predictors["data"].save(out / "models" / "mlp")  # type: ignore[attr-defined]
+        saved["data"] = [str(npz.relative_to(out)), str(js.relative_to(out))]
+    figs = plot_all(ev, out / "figures")
+    ev.metrics["data_dir"] = str(Path(args.data))
+    ev.metrics["seed"] = args.seed
+    ev.metrics["atlas_hash"] = atlas.content_hash
+    ev.metrics["saved_models"] = saved
+    ev.metrics["skipped"] = skipped or {}
+    ev.metrics["figures"] = {k: str(v.relative_to(out)) for k, v in figs.items()}
+    ev.metrics["timing_s"] = {
+        "read_logs": read_s,
+        "fit": fit_s,
+        "predict_and_score": predict_s,
+        "total": time.perf_counter() - t_start,
+    }
+    write_json(ev.metrics, out / "metrics.json")
+    (out / "table.md").write_text(_markdown_tables(ev) + "\n")
+    print(ev.table())
+    print()
+    print(ev.summary_table())
+    timing = ev.metrics["timing_s"]
+    fits = "  ".join(f"{k} {v:.1f} s" for k, v in fit_s.items())
+    print(f"\nfit: {fits}  predict+score: {predict_s:.1f} s  total: {timing['total']:.1f} s")
+    print(f"wrote {out}/metrics.json, table.md, figures/" + (", models/" if saved else ""))
+    return {"metrics": ev.metrics, "evaluation": ev, "out": out}
+
+
+def _markdown_tables(ev: Evaluation) -> str:
+    return (
+        "RUL RMSE per run [braking events] (paper Table 4)\n\n"
+        + ev.table(markdown=True)
+        + "\n\nMeans over runs: RMSE [events], RMSE / life, convergence event for each"
+        " tolerance as a fraction of life (1 = never), relative accuracy and alpha-lambda"
+        " (alpha 0.2) at half life, PHM08 score (d in % of life), volume RMSE, mean"
+        " relative K error, interval coverage\n\n" + ev.summary_table(markdown=True)
+    )
+
+
+def demo_stage(ctx: DemoContext) -> tuple[dict[str, Any], str]:
+    """The evaluation of the demo's datasets, written under ``ctx.out / "evaluate"``."""
+    args = argparse.Namespace(
+        data=str(ctx.data_dir),
+        out=str(ctx.out / "evaluate"),
+        seed=ctx.args.seed,
+        preset=ctx.args.preset,
+        cache_dir=ctx.args.cache_dir,
+        quiet=ctx.args.quiet,
+        atlas=str(ctx.atlas_file),
+        predictors=DEFAULT_PREDICTORS,
+        batch_events=0,
+        mlp_epochs=None,
+    )
+    res = cmd_evaluate(args, skip_unfittable=True)
+    ev: Evaluation = res["evaluation"]
+    rel = Path("evaluate")
+    figs = "\n\n".join(f"![{k}]({(rel / v).as_posix()})" for k, v in ev.metrics["figures"].items())
+    timing = ev.metrics["timing_s"]
+    section = (
+        "## Prognostics (paper Table 4, Figures 10-13)\n\n"
+        + _markdown_tables(ev)
+        + "".join(f"\n\n{k} skipped: {v}." for k, v in ev.metrics["skipped"].items())
+        + f"\n\nFit: {', '.join(f'{k} {v:.1f} s' for k, v in timing['fit'].items())};"
+        f" prediction and scoring {timing['predict_and_score']:.1f} s."
+        " Full metrics: `evaluate/metrics.json`.\n\n" + figs + "\n"
+    )
+    summary = {
+        "mean_rul_rmse": {m: {s: ev.mean(m, s, "rul_rmse") for s in ev.splits} for m in ev.models},
+        "metrics_file": str(Path(args.out) / "metrics.json"),
+    }
+    return summary, section
