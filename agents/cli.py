@@ -13,7 +13,14 @@ from agents.compare import CompareConfig, Entry, run_compare
 from agents.evaluation import run_episodes, summary_rows, with_oracle_ratios
 from agents.policies import RULThreshold
 from agents.train import ALGOS, TrainedAgent, agent_env, train_agent
-from brake_env.cli.common import add_common_args, int_at_least, load_atlas, table, write_json
+from brake_env.cli.common import (
+    add_common_args,
+    int_at_least,
+    load_atlas,
+    table,
+    wear_regime,
+    write_json,
+)
 from brake_env.cli.demo import DemoContext
 from brake_env.env.brake_wear import BrakeWearEnv
 from brake_env.env.config import REGIMES
@@ -200,10 +207,10 @@ def demo_compare(ctx: DemoContext) -> tuple[dict[str, Any], str]:
     """The comparison on a small budget: short episodes, few seeds, one short PPO run on the
     twin (trained on a pool of 8 pads). Grids scale with the demo's pad life."""
     from agents.train import load_hyperparams
-    from brake_env.model.simulator import expected_life
+    from brake_env.model.wear import WearModel
 
     args = ctx.args
-    life = float(expected_life(load_atlas(args), args.k_mean))
+    life = float(WearModel.from_atlas(load_atlas(args)).life(args.k_mean))
     interval = int(min(500, max(1, life // 240)))
     config = CompareConfig(
         decision_interval=interval,
@@ -215,8 +222,8 @@ def demo_compare(ctx: DemoContext) -> tuple[dict[str, Any], str]:
         eval_seeds=3,
         thresholds=(0, 1, 2, 4, 8, 16, 32, 64),
         fixed_intervals=tuple(int(f * life) for f in (0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 1.0)),
-        k_mean=args.k_mean,
-        k_std=args.k_std,
+        k_mean=wear_regime(args).k_mean,
+        k_std=wear_regime(args).k_std,
     )
     hp = {"twin": {**load_hyperparams("twin", config.algo), "pad_pool": 8}}
     out = ctx.out / "compare"

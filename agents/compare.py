@@ -37,6 +37,7 @@ from brake_env.env.brake_wear import BrakeWearEnv
 from brake_env.env.config import REGIMES, CostWeights
 from brake_env.env.wrappers import RULObservation
 from brake_env.model.atlas import Atlas
+from brake_env.model.regime import WearRegime
 from brake_env.prognostics.protocol import Predictor
 from brake_env.prognostics.registry import make_predictor, predictor_names
 
@@ -136,7 +137,7 @@ def fit_predictors(
     """Each named predictor fitted on ``n_train_runs`` freshly simulated training pads; and
     the seconds each fit took."""
     spec = DatasetSpec(
-        n_train=n_train_runs, n_id=0, n_ood_slow=0, n_ood_fast=0, k_mean=k_mean, k_std=k_std
+        n_train=n_train_runs, n_id=0, n_ood_slow=0, n_ood_fast=0, wear=WearRegime(k_mean, k_std)
     )
     train_log = make_dataset(atlas, spec, seed).logs["train"]
     fitted, seconds = {}, {}

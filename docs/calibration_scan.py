@@ -18,7 +18,7 @@ import numpy as np
 from brake_env.model.atlas import Atlas, AtlasSpec
 from brake_env.model.params import BrakeModel
 from brake_env.model.physics import critical_volume, simulate_events
-from brake_env.model.simulator import expected_life
+from brake_env.model.wear import WearModel
 
 N_MC = 100_000
 
@@ -32,7 +32,7 @@ def study(model: BrakeModel, s, m, th) -> tuple[float, float, float, float]:
     ratio = w1.mean() / w0.mean()
     se = np.std(w1) / w0.mean() / math.sqrt(s.size)
     coarse = Atlas.build(AtlasSpec(model=model, n_speed=12, n_mass=4, n_slope=11))
-    return vc, ratio, se, float(expected_life(coarse, 2e-6))
+    return vc, ratio, se, float(WearModel.from_atlas(coarse).life(2e-6))
 
 
 def main() -> None:

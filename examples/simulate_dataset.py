@@ -12,12 +12,13 @@ from pathlib import Path
 from brake_env.data.datasets import DatasetSpec, make_dataset, write_dataset
 from brake_env.data.plots import plot_volume_trajectories
 from brake_env.model.atlas import cached_atlas
+from brake_env.model.regime import WearRegime
 
 
 def main(out_dir: str = "out/example", k_mean: float = 2e-6, runs: int = 2) -> dict[str, int]:
     atlas = cached_atlas()  # built once (~1 s), then loaded from ~/.cache/brakewear
     spec = DatasetSpec(
-        n_train=runs, n_id=runs, n_ood_slow=1, n_ood_fast=1, k_mean=k_mean, k_std=k_mean / 10
+        n_train=runs, n_id=runs, n_ood_slow=1, n_ood_fast=1, wear=WearRegime(k_mean, k_mean / 10)
     )
     ds = make_dataset(atlas, spec, seed=0)
     lives = {run_id: t.n_events for _, run_id, t in ds.runs}

@@ -23,6 +23,7 @@ from brake_env.cli.simulate import cmd_simulate, dataset_spec
 from brake_env.data.datasets import SPLITS, DatasetSpec, write_dataset
 from brake_env.data.schema import read_event_log
 from brake_env.model.atlas import Atlas
+from brake_env.model.regime import WearRegime
 from sim2real.diagnose import NONE, DiagnosisConfig, diagnose
 from sim2real.effects import Effect, describe_library, parse_effect, registry
 from sim2real.report import write_outputs
@@ -289,7 +290,7 @@ def demo_stage(ctx: DemoContext) -> tuple[dict[str, Any], str]:
     out = ctx.out / "sim2real"
     atlas = Atlas.load(ctx.atlas_file)
     effect = parse_effect("speed_friction:a=0.2")
-    ds = DatasetSpec(n_train=6, n_id=0, n_ood_slow=0, n_ood_fast=0, k_mean=2e-5, k_std=2e-6)
+    ds = DatasetSpec(n_train=6, n_id=0, n_ood_slow=0, n_ood_fast=0, wear=WearRegime(2e-5, 2e-6))
     t0 = time.perf_counter()
     logs = simulate_truth(atlas.spec, [effect], TruthSpec(ds), seed=ctx.args.seed)
     from brake_env.data.schema import write_event_log

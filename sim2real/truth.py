@@ -32,9 +32,9 @@ from brake_env.model.simulator import (
     AlternatingRoutes,
     Trajectory,
     conditions_from_uniform,
-    expected_life,
     simulate_runs,
 )
+from brake_env.model.wear import WearModel
 from sim2real.effects import (
     Effect,
     InEventPhysics,
@@ -165,7 +165,7 @@ def simulate_truth(
 
 
 def _capacity(atlas: Atlas, k: float) -> int:
-    return int(1.3 * float(expected_life(atlas, k))) + 1000
+    return int(1.3 * float(WearModel.from_atlas(atlas).life(k))) + 1000
 
 
 def _context(atlas: Atlas, t: Trajectory, base_c: float) -> SensorContext:
@@ -217,8 +217,8 @@ def _carry_over_runs(
     # Every event's grid cell, located once (all atlases share the grid); the loop then only
     # gathers table rows. Uses the atlas's own cell tables and its interpolation order, so
     # a neutral effect reproduces simulate_runs bit for bit.
-    cell, frac = base_atlas._locate(s_all, m_all, th_all, False)
-    tables = [a._cells(_FIELDS) for a in atlases]
+    cell, frac = base_atlas.lookup.locate(s_all, m_all, th_all, False)
+    tables = [a.lookup.corner_table(_FIELDS) for a in atlases]
     n_cells = tables[0].shape[1]
     flat = [t.reshape(-1, *t.shape[2:]) for t in tables]
     cols = {f: np.full((n, cap), np.nan) for f in (*_FIELDS, "vol", "t0")}

@@ -25,6 +25,7 @@ from numpy.typing import ArrayLike
 
 from brake_env.data.datasets import DatasetSpec
 from brake_env.model.atlas import Atlas
+from brake_env.model.regime import WearRegime
 from sim2real.diagnose import NONE, DiagnosisConfig, diagnose
 from sim2real.effects import LIBRARY, Effect, EventState, Param
 from sim2real.rul import rul_scorer
@@ -153,8 +154,7 @@ def run_case(
         n_id=0,
         n_ood_slow=0,
         n_ood_fast=0,
-        k_mean=spec.k_mean,
-        k_std=0.1 * spec.k_mean,
+        wear=WearRegime(spec.k_mean, 0.1 * spec.k_mean),
         route_block_events=spec.route_block_events,
     )
     t0 = time.perf_counter()

@@ -28,7 +28,7 @@ import pandas as pd
 
 from brake_env.model.atlas import Atlas
 from brake_env.model.simulator import conditions_from_uniform
-from brake_env.model.wear import F64, TemperatureTable, WearModel
+from brake_env.model.wear import F64, WearModel
 from brake_env.prognostics.protocol import MEASURED, EventBatch, Predictor, RULEstimate
 from twin.twin import FIT_COLUMNS
 
@@ -120,7 +120,6 @@ class ReferenceTwin(Predictor):
             raise ValueError("ReferenceTwin: update_every and window must be >= 1")
         self.atlas, self.update_every, self.window, self.seed = atlas, update_every, window, seed
         self._wear = WearModel.from_atlas(atlas)
-        self._table = TemperatureTable(atlas)
         self.k_prior: float | None = None
         self._reset()
 
@@ -153,7 +152,7 @@ class ReferenceTwin(Predictor):
         return float(0.5 * (self.atlas.volumes[j] + self.atlas.lower_edges[j]))
 
     def _layers(self, events: EventBatch) -> tuple[int, F64, F64]:
-        t, dt = self._table.all_layers(events.speed_kmh / 3.6, events.mass_kg, events.slope_rad)
+        t, dt = self.atlas.lookup.profile(events.speed_kmh / 3.6, events.mass_kg, events.slope_rad)
         return len(events), t, dt
 
     def _update(self, events: EventBatch) -> RULEstimate:

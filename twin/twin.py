@@ -39,7 +39,7 @@ import pandas as pd
 from numpy.typing import NDArray
 
 from brake_env.model.atlas import Atlas
-from brake_env.model.wear import TemperatureTable, WearModel
+from brake_env.model.wear import WearModel
 from brake_env.prognostics.protocol import EventBatch, Predictor, RULEstimate
 from twin.config import TwinCalibration, TwinConfig
 
@@ -74,7 +74,6 @@ class DigitalTwin(Predictor):
         self.atlas = atlas
         self.config = config or TwinConfig()
         self.wear = WearModel.from_atlas(atlas)
-        self._table = TemperatureTable(atlas)
         self.calibration: TwinCalibration | None = None
         self._z = NormalDist().inv_cdf(0.5 + 0.5 * float(self.interval_level or 0.9))
         if calibration is not None:
@@ -139,7 +138,7 @@ class DigitalTwin(Predictor):
             s, m, th, temp = (np.where(ok, x, 0.0) for x in (s, m, th, temp))
 
         # (a) every layer's atlas temperature at this event's conditions -> log-likelihood.
-        t_atlas, dt_dslope = self._table.all_layers(s, m, th)
+        t_atlas, dt_dslope = self.atlas.lookup.profile(s, m, th)
         var = cal.temp_sigma_c**2 + (dt_dslope * cal.slope_sigma_rad) ** 2
         r = (temp - cal.temp_bias_c)[:, None] - t_atlas
         ll = -0.5 * (r * r / var + np.log(var))
@@ -271,8 +270,8 @@ def fit_calibration(
     if ok.sum() < 10:
         raise ValueError("twin.fit: fewer than 10 training events with all channels finite")
     layer = wear.layer_at_work(k_run[ok] * event[sel][ok])
-    t_atlas, dt = TemperatureTable(atlas).at_layers(
-        cols["speed_kmh"][ok] / 3.6, cols["mass_kg"][ok], cols["slope_rad"][ok], layer
+    t_atlas, dt = atlas.lookup.profile(
+        cols["speed_kmh"][ok] / 3.6, cols["mass_kg"][ok], cols["slope_rad"][ok], layer=layer
     )
     r = cols["temp_c"][ok] - t_atlas
     bias = float(r.mean())

@@ -14,6 +14,7 @@ from tqdm import tqdm
 
 from brake_env.model.atlas import Atlas, AtlasSpec, cached_atlas
 from brake_env.model.params import BrakeModel
+from brake_env.model.regime import WearRegime
 
 
 def int_at_least(lo: int) -> Callable[[str], int]:
@@ -72,3 +73,20 @@ def add_common_args(sp: argparse.ArgumentParser, out_default: str) -> None:
 def plugins(group: str) -> list[Any]:
     """Installed plug-ins of ``group``, ordered by name (demo stages are named "NN-what")."""
     return sorted(entry_points(group=group), key=lambda ep: ep.name)
+
+
+def add_wear_args(sp: argparse.ArgumentParser, k_mean: float = 2e-6) -> None:
+    """Options of the wear regime (:class:`~brake_env.model.regime.WearRegime`)."""
+    sp.add_argument("--k-mean", type=float, default=k_mean, help="mean Archard coefficient")
+    sp.add_argument(
+        "--k-std", type=float, default=None, help="std of the coefficient (default: k-mean / 10)"
+    )
+    sp.add_argument(
+        "--ood-shift-sigma", type=float, default=6.0, help="OOD mean shift in units of --k-std"
+    )
+
+
+def wear_regime(args: argparse.Namespace) -> WearRegime:
+    """The WearRegime of the ``--k-mean``, ``--k-std`` and ``--ood-shift-sigma`` options."""
+    k_std = args.k_std if args.k_std is not None else 0.1 * args.k_mean
+    return WearRegime(args.k_mean, k_std, args.ood_shift_sigma)

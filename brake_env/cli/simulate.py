@@ -9,7 +9,15 @@ from typing import Any
 
 from tqdm import tqdm
 
-from brake_env.cli.common import add_common_args, int_at_least, load_atlas, table, write_json
+from brake_env.cli.common import (
+    add_common_args,
+    add_wear_args,
+    int_at_least,
+    load_atlas,
+    table,
+    wear_regime,
+    write_json,
+)
 from brake_env.data.datasets import SPLITS, DatasetSpec, make_dataset, write_dataset
 from brake_env.data.summary import atlas_summary, dataset_summary
 
@@ -34,8 +42,7 @@ def add_simulation_args(sp: argparse.ArgumentParser, fmt_default: str) -> None:
     )
     for name, n in (("train", 10), ("id", 10), ("ood-slow", 5), ("ood-fast", 5)):
         sp.add_argument(f"--n-{name}", type=int_at_least(0), default=n, help=f"{name} runs")
-    sp.add_argument("--k-mean", type=float, default=2e-6, help="mean Archard coefficient")
-    sp.add_argument("--k-std", type=float, default=2e-7, help="std of the coefficient")
+    add_wear_args(sp)
     sp.add_argument(
         "--interpolate-layers",
         action="store_true",
@@ -98,8 +105,7 @@ def dataset_spec(args: argparse.Namespace) -> DatasetSpec:
         n_id=args.n_id,
         n_ood_slow=args.n_ood_slow,
         n_ood_fast=args.n_ood_fast,
-        k_mean=args.k_mean,
-        k_std=args.k_std,
+        wear=wear_regime(args),
         interpolate_layers=args.interpolate_layers,
         route_block_events=args.route_block_events,
     )

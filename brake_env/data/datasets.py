@@ -16,9 +16,9 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from brake_env._validate import check_positive
 from brake_env.data.schema import SENSOR_CHANNELS, write_event_log
 from brake_env.model.atlas import Atlas
+from brake_env.model.regime import Label, WearRegime
 from brake_env.model.simulator import (
     F64,
     AlternatingRoutes,
@@ -35,13 +35,11 @@ class DatasetSpec:
     """How many runs of which wear coefficient (paper 2.1.6).
 
     Attributes:
-        n_train: Training runs, K ~ N(k_mean, k_std^2).
-        n_id: In-distribution test runs, same distribution.
-        n_ood_slow: OOD runs with mean k_mean - ood_shift_sigma * k_std (slow wear).
-        n_ood_fast: OOD runs with mean k_mean + ood_shift_sigma * k_std (fast wear).
-        k_mean: Mean Archard coefficient [-].
-        k_std: Standard deviation of K [-].
-        ood_shift_sigma: OOD mean shift in units of k_std [-].
+        n_train: Training runs, in-distribution K.
+        n_id: In-distribution test runs.
+        n_ood_slow: OOD runs of slow wear (mean K shifted down).
+        n_ood_fast: OOD runs of fast wear (mean K shifted up).
+        wear: Distribution of K (:class:`~brake_env.model.regime.WearRegime`).
         noise: Sensor noise added to the logged channels.
         interpolate_layers: Blend adjacent atlas layers by volume (paper footnote 1).
         route_block_events: 0 draws each event's conditions independently (the paper);
@@ -52,9 +50,7 @@ class DatasetSpec:
     n_id: int = 10
     n_ood_slow: int = 5
     n_ood_fast: int = 5
-    k_mean: float = 2e-6
-    k_std: float = 2e-7
-    ood_shift_sigma: float = 6.0
+    wear: WearRegime = field(default_factory=WearRegime)
     noise: SensorNoise = field(default_factory=SensorNoise)
     interpolate_layers: bool = False
     route_block_events: int = 0
@@ -66,14 +62,13 @@ class DatasetSpec:
                 raise ValueError(f"DatasetSpec.{name} must be an int >= 0, got {n!r}")
         if self.n_train + self.n_id + self.n_ood_slow + self.n_ood_fast == 0:
             raise ValueError("DatasetSpec: no runs to simulate (all run counts are 0)")
-        check_positive(self, "k_mean", "k_std")
         if not isinstance(self.route_block_events, int) or self.route_block_events < 0:
             raise ValueError(
                 "DatasetSpec.route_block_events must be an int >= 0, got"
                 f" {self.route_block_events!r}"
             )
-        if self.k_mean - (self.ood_shift_sigma + 3.0) * self.k_std <= 0 and self.n_ood_slow:
-            raise ValueError("DatasetSpec: the slow OOD mean is too close to K = 0")
+        if self.n_ood_slow:
+            self.wear.check_ood()
 
     @property
     def duty(self) -> AlternatingRoutes | None:
@@ -83,18 +78,15 @@ class DatasetSpec:
 
     def plan(self, rng: np.random.Generator) -> list[tuple[str, str, float]]:
         """(split, run_id, K) of every run, K drawn from ``rng``."""
-        mu, sd, shift = self.k_mean, self.k_std, self.ood_shift_sigma * self.k_std
-        draws = [
-            ("train", "train", mu, self.n_train),
-            ("id", "id", mu, self.n_id),
-            ("ood", "ood-slow", mu - shift, self.n_ood_slow),
-            ("ood", "ood-fast", mu + shift, self.n_ood_fast),
+        draws: list[tuple[str, str, Label, int]] = [
+            ("train", "train", "id", self.n_train),
+            ("id", "id", "id", self.n_id),
+            ("ood", "ood-slow", "ood-slow", self.n_ood_slow),
+            ("ood", "ood-fast", "ood-fast", self.n_ood_fast),
         ]
         runs = []
-        for split, prefix, mean, n in draws:
-            for i, k in enumerate(rng.normal(mean, sd, n)):
-                if k <= 0:
-                    raise ValueError(f"drew a non-positive K for {prefix}-{i:02d}; lower k_std")
+        for split, prefix, label, n in draws:
+            for i, k in enumerate(self.wear.draw(rng, label, n)):
                 runs.append((split, f"{prefix}-{i:02d}", float(k)))
         return runs
 

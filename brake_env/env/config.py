@@ -13,7 +13,8 @@ from typing import Any, Literal
 
 import numpy as np
 
-from brake_env._validate import check_nonnegative, check_positive, check_range, from_dict
+from brake_env._validate import check_nonnegative, check_range, from_dict
+from brake_env.model.regime import Label, WearRegime
 from brake_env.model.simulator import SensorNoise
 
 REGIMES = ("id", "ood", "mixed")
@@ -65,45 +66,33 @@ class CostWeights:
 
 @dataclass(frozen=True)
 class PadRegime:
-    """How the Archard coefficient K of each new pad is drawn (paper 2.1.6).
+    """Which wear regime each new pad comes from (paper 2.1.6).
 
     Attributes:
-        kind: ``id`` (K ~ N(k_mean, k_std^2)), ``ood`` (mean shifted by -/+ ood_shift_sigma *
-            k_std with equal odds: slow or fast wear) or ``mixed`` (OOD with probability
-            ``ood_share``, else ID).
+        kind: ``id`` (in-distribution K), ``ood`` (slow or fast OOD wear with equal odds) or
+            ``mixed`` (OOD with probability ``ood_share``, else ID).
         ood_share: Probability that a new pad is OOD in the ``mixed`` regime [-].
-        k_mean: Mean K of in-distribution pads [-].
-        k_std: Standard deviation of K around its mean [-].
-        ood_shift_sigma: OOD mean shift in units of ``k_std`` [-].
+        wear: The distribution of K of each label.
     """
 
     kind: Literal["id", "ood", "mixed"] = "id"
     ood_share: float = 0.5
-    k_mean: float = 2e-6
-    k_std: float = 2e-7
-    ood_shift_sigma: float = 6.0
+    wear: WearRegime = field(default_factory=WearRegime)
 
     def __post_init__(self) -> None:
         if self.kind not in REGIMES:
             raise ValueError(f"regime must be one of {list(REGIMES)}, got {self.kind!r}")
         check_range(self, "ood_share", 0.0, 1.0)
-        check_positive(self, "k_mean", "k_std")
-        check_nonnegative(self, "ood_shift_sigma")
-        if self.k_mean - self.ood_shift_sigma * self.k_std <= 0 and self.kind != "id":
-            raise ValueError("PadRegime: the slow OOD mean k_mean - shift * k_std is <= 0")
+        if self.kind != "id":
+            self.wear.check_ood()
 
-    def draw(self, rng: np.random.Generator) -> tuple[float, str]:
+    def draw(self, rng: np.random.Generator) -> tuple[float, Label]:
         """K of one new pad and its label (``id``, ``ood-slow`` or ``ood-fast``)."""
         ood = self.kind == "ood" or (self.kind == "mixed" and rng.random() < self.ood_share)
-        label, mean = "id", self.k_mean
+        label: Label = "id"
         if ood:
-            fast = rng.random() < 0.5
-            label = "ood-fast" if fast else "ood-slow"
-            mean += (1 if fast else -1) * self.ood_shift_sigma * self.k_std
-        while True:  # a normal draw can in principle be <= 0; redraw (never with the defaults)
-            k = float(rng.normal(mean, self.k_std))
-            if k > 0:
-                return k, label
+            label = "ood-fast" if rng.random() < 0.5 else "ood-slow"
+        return float(self.wear.draw(rng, label, 1)[0]), label
 
 
 @dataclass(frozen=True)
@@ -116,7 +105,9 @@ class EnvConfig:
             (several pad lives: a pad lasts ~1.2e5 events at the default K) [events].
         regime: Wear regime of new pads: ``id``, ``ood`` or ``mixed``.
         ood_share: Share of OOD pads in the ``mixed`` regime [-].
-        k_mean, k_std, ood_shift_sigma: Distribution of K (see :class:`PadRegime`).
+        k_mean, k_std, ood_shift_sigma: Distribution of K (the fields of
+            :class:`~brake_env.model.regime.WearRegime`, flat so that ``gym.make`` and RL
+            Zoo's ``env_kwargs`` take them as keywords).
         costs: Cost weights (a :class:`CostWeights` or a dict of its fields).
         noise: Sensor noise of the observed channels (a :class:`SensorNoise` or a dict).
         preset: Brake calibration of the default atlas (``hot-duty`` or ``cold-start``).
@@ -176,7 +167,11 @@ class EnvConfig:
 
     @property
     def pad_regime(self) -> PadRegime:
-        return PadRegime(self.regime, self.ood_share, self.k_mean, self.k_std, self.ood_shift_sigma)
+        return PadRegime(self.regime, self.ood_share, self.wear)
+
+    @property
+    def wear(self) -> WearRegime:
+        return WearRegime(self.k_mean, self.k_std, self.ood_shift_sigma)
 
     @property
     def steps_per_episode(self) -> int:

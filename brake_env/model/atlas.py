@@ -17,14 +17,16 @@ import time
 import zipfile
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from functools import cached_property
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from brake_env.model.lookup import GridLookup, trapezoid_weights
 from brake_env.model.params import BrakeModel
-from brake_env.model.physics import EventModifier, critical_volume, simulate_events
+from brake_env.model.physics import EventModifier, critical_volume, end_of_life, simulate_events
 
 F64 = NDArray[np.float64]
 FORMAT_VERSION = 2
@@ -131,7 +133,7 @@ class Atlas:
         mass = np.linspace(*env.mass_kg, spec.n_mass)
         slope = np.radians(np.linspace(*env.slope_deg, spec.n_slope))
         v_crit = critical_volume(spec.model, modifier=modifier)
-        v_end = _end_of_life(v_crit, spec.model)
+        v_end = end_of_life(v_crit, spec.model)
         n_layers = int(np.floor((1.0 - v_end) / spec.layer_step + 1e-9)) + 1
         volumes = (1.0 - spec.layer_step * np.arange(n_layers)).astype(np.float64)
         volumes = volumes[volumes > v_end]
@@ -163,7 +165,7 @@ class Atlas:
     @property
     def failure_volume(self) -> float:
         """End of pad life: the critical volume, or the wear-out limit if that is higher."""
-        return _end_of_life(self.critical_volume, self.spec.model)
+        return end_of_life(self.critical_volume, self.spec.model)
 
     @property
     def lower_edges(self) -> F64:
@@ -252,6 +254,11 @@ class Atlas:
         }
 
     # ---------------------------------------------------------------- queries
+    @cached_property
+    def lookup(self) -> GridLookup:
+        """The trilinear lookup on this atlas's grid (:mod:`brake_env.model.lookup`)."""
+        return GridLookup((self.speed_mps, self.mass_kg, self.slope_rad), self.fields)
+
     def layer_of(self, volume_frac: ArrayLike) -> NDArray[np.intp]:
         """Index of the active layer: the map at the lowest 1% level at or above the volume."""
         v = np.asarray(volume_frac, dtype=np.float64)
@@ -290,20 +297,20 @@ class Atlas:
             if lay.size and (lay.min() < 0 or lay.max() >= self.n_layers):
                 raise ValueError(f"layer must be in [0, {self.n_layers - 1}]")
             s, m, th, lay = np.broadcast_arrays(s, m, th, lay)
-            cell, frac = self._locate(s, m, th, clip)
-            return self._interp(tuple(fields), lay, cell, frac)
+            cell, frac = self.lookup.locate(s, m, th, clip)
+            return self.lookup.interp(tuple(fields), lay, cell, frac)
 
         vol = np.asarray(volume_frac, dtype=np.float64)
         s, m, th, vol = np.broadcast_arrays(s, m, th, vol)
-        cell, frac = self._locate(s, m, th, clip)
+        cell, frac = self.lookup.locate(s, m, th, clip)
         j0 = self.layer_of(vol)
         if not interpolate_layers:
-            return self._interp(tuple(fields), j0, cell, frac)
+            return self.lookup.interp(tuple(fields), j0, cell, frac)
         # Blend with the next (lower-volume) layer; the last layer has none and is held.
         j1 = np.minimum(j0 + 1, self.n_layers - 1)
         w1 = np.where(j1 > j0, (self.volumes[j0] - vol) / self.spec.layer_step, 0.0)
-        a = self._interp(tuple(fields), j0, cell, frac)
-        b = self._interp(tuple(fields), j1, cell, frac)
+        a = self.lookup.interp(tuple(fields), j0, cell, frac)
+        b = self.lookup.interp(tuple(fields), j1, cell, frac)
         return {f: (1.0 - w1) * a[f] + w1 * b[f] for f in fields}
 
     def expected(self, field_name: str) -> F64:
@@ -313,7 +320,7 @@ class Atlas:
         function is the trapezoid-weighted mean of its node values.
         """
         w = np.einsum(
-            "i,j,k->ijk", *(_trapezoid_weights(n) for n in self.fields[field_name].shape[1:])
+            "i,j,k->ijk", *(trapezoid_weights(n) for n in self.fields[field_name].shape[1:])
         )
         return np.einsum("lijk,ijk->l", self.fields[field_name], w)
 
@@ -327,71 +334,6 @@ class Atlas:
                 f" got range [{v.min():g}, {v.max():g}]"
             )
 
-    def _locate(self, s: F64, m: F64, th: F64, clip: bool) -> tuple[NDArray[np.intp], F64]:
-        """Flat cell index within a layer and fractional position (3, ...) inside the cell."""
-        idx, frac = [], []
-        for name, x, axis in (
-            ("speed_mps", s, self.speed_mps),
-            ("mass_kg", m, self.mass_kg),
-            ("slope_rad", th, self.slope_rad),
-        ):
-            lo, hi = axis[0], axis[-1]
-            if x.size and not np.all(np.isfinite(x)):
-                raise ValueError(f"{name} must be finite (got NaN or inf)")
-            if clip:
-                x = np.clip(x, lo, hi)
-            elif x.size and (np.min(x) < lo - 1e-9 or np.max(x) > hi + 1e-9):
-                raise ValueError(
-                    f"{name} outside the atlas grid [{lo:.6g}, {hi:.6g}]:"
-                    f" got range [{np.min(x):.6g}, {np.max(x):.6g}]"
-                )
-            u = np.clip((x - lo) * ((axis.size - 1) / (hi - lo)), 0.0, axis.size - 1)
-            r = np.rint(u)
-            u = np.where(np.abs(u - r) < 1e-9, r, u)  # a node hit within rounding is the node
-            i = np.minimum(u.astype(np.intp), axis.size - 2)
-            idx.append(i)
-            frac.append(u - i)
-        cm, ct = self.mass_kg.size - 1, self.slope_rad.size - 1
-        return (idx[0] * cm + idx[1]) * ct + idx[2], np.stack(frac)
-
-    def _cells(self, names: tuple[str, ...]) -> F64:
-        """Fields regrouped as (layers, cells, fields, 8): each cell's corners side by side,
-        so one gather per event fetches everything the interpolation needs."""
-        cache = self.__dict__.setdefault("_cell_cache", {})
-        if names not in cache:
-            a = np.stack([self.fields[n] for n in names], axis=-1)  # (L, ns, nm, nt, F)
-            n_l, ns, nm, nt, n_f = a.shape
-            corners = [
-                a[:, ds : ns - 1 + ds, dm : nm - 1 + dm, dt : nt - 1 + dt]
-                for ds in (0, 1)
-                for dm in (0, 1)
-                for dt in (0, 1)
-            ]
-            cache[names] = np.stack(corners, axis=-1).reshape(n_l, -1, n_f, 8)
-        return cache[names]
-
-    def _interp(
-        self, names: tuple[str, ...], layer: NDArray[np.intp], cell: NDArray[np.intp], f: F64
-    ) -> dict[str, F64]:
-        """Trilinear interpolation as 7 lerps, (1-f)*a + f*b: exact at every grid node."""
-        table = self._cells(names)
-        if layer.ndim == 0 or np.all(layer == layer.flat[0]):
-            g = table[int(layer.flat[0])][cell]  # one layer: gather from a cache-sized slice
-        else:
-            g = table.reshape(-1, *table.shape[2:])[layer * table.shape[1] + cell]
-        fs, fm, ft = (x[..., None] for x in f)  # broadcast over the fields axis
-        gs = 1.0 - ft
-        c = [gs * g[..., 2 * i] + ft * g[..., 2 * i + 1] for i in range(4)]  # along slope
-        gm = 1.0 - fm
-        c0, c1 = gm * c[0] + fm * c[1], gm * c[2] + fm * c[3]  # along mass
-        out = (1.0 - fs) * c0 + fs * c1  # along speed
-        return {n: out[..., i] for i, n in enumerate(names)}
-
-
-def _end_of_life(critical_volume: float, model: BrakeModel) -> float:
-    """The pad's life ends when it cannot stop the severe event, or at the wear-out limit."""
-    return max(critical_volume, model.brake.min_volume_frac)
-
 
 def _digest(arrays: dict[str, np.ndarray]) -> str:
     """SHA-256 over the names, shapes and bytes of the arrays, in name order."""
@@ -401,12 +343,6 @@ def _digest(arrays: dict[str, np.ndarray]) -> str:
         h.update(f"{k}{a.shape}".encode())
         h.update(a.tobytes())
     return h.hexdigest()
-
-
-def _trapezoid_weights(n: int) -> F64:
-    w = np.ones(n)
-    w[[0, -1]] = 0.5
-    return w / w.sum()
 
 
 def default_cache_dir() -> Path:

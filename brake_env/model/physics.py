@@ -218,13 +218,18 @@ def can_stop(
 
 
 def critical_volume(
-    model: BrakeModel | None = None, tol: float = 1e-6, modifier: EventModifier | None = None
+    model: BrakeModel | None = None,
+    tol: float = 1e-6,
+    modifier: EventModifier | None = None,
+    batch: int = 1,
 ) -> float:
     """Pad volume fraction below which the envelope's most severe event can no longer stop.
 
-    Found by bisection on the physics (not by atlas layer steps). Returns 0.0 if even an
-    almost fully worn pad stops it, and raises if a fresh pad cannot. ``modifier`` as in
-    :func:`simulate_events`.
+    Found on the physics (not by atlas layer steps) by shrinking a bracket until it is
+    narrower than ``tol``: by bisection (``batch=1``), or with ``batch`` volumes per round
+    simulated at once (fewer rounds, for callers that build many models). Returns 0.0 if
+    even an almost fully worn pad stops it, and raises if a fresh pad cannot. ``modifier``
+    as in :func:`simulate_events`.
     """
     model = model or BrakeModel()
     v, m, th = model.envelope.severe_event
@@ -234,9 +239,20 @@ def critical_volume(
     if can_stop(lo, v, m, th, model, modifier):
         return 0.0
     while hi - lo > tol:
+        if batch > 1:  # stopping is monotonic in volume: the last failing one bounds below
+            vols = np.linspace(lo, hi, batch)
+            ok = simulate_events(v, m, th, vols, model, modifier=modifier).stopped
+            j = int(np.flatnonzero(~ok)[-1])
+            lo, hi = float(vols[j]), float(vols[j + 1])
+            continue
         mid = 0.5 * (lo + hi)
         if can_stop(mid, v, m, th, model, modifier):
             hi = mid
         else:
             lo = mid
     return 0.5 * (lo + hi)
+
+
+def end_of_life(critical_volume_frac: float, model: BrakeModel) -> float:
+    """The pad's life ends when it cannot stop the severe event, or at the wear-out limit."""
+    return max(critical_volume_frac, model.brake.min_volume_frac)

@@ -22,6 +22,7 @@ from numpy.typing import NDArray
 
 from brake_env._validate import check_nonnegative
 from brake_env.model.atlas import Atlas
+from brake_env.model.wear import WearModel
 
 F64 = NDArray[np.float64]
 _RESPONSE = ("temp_mean_c", "stop_dist_m", "wear_per_k_m3")
@@ -169,14 +170,6 @@ def conditions_from_uniform(atlas: Atlas, u: F64) -> tuple[F64, F64, F64]:
     return x[..., 0], x[..., 1], x[..., 2]
 
 
-def expected_life(atlas: Atlas, wear_coeff: float | F64) -> F64:
-    """Expected events to failure for coefficient(s) K, from the atlas's mean wear per layer."""
-    k = np.asarray(wear_coeff, dtype=np.float64)[..., None]
-    span = atlas.volumes - atlas.lower_edges
-    per_event = k * atlas.expected("wear_per_k_m3") / atlas.spec.model.brake.pad_volume_m3
-    return (span / per_event).sum(axis=-1)
-
-
 def simulate_runs(
     atlas: Atlas,
     wear_coeffs: Sequence[float] | F64,
@@ -208,7 +201,7 @@ def simulate_runs(
     n_runs = ks.size
     pad_v = atlas.spec.model.brake.pad_volume_m3
     mean_w = atlas.expected("wear_per_k_m3")
-    capacity = (1.1 * expected_life(atlas, ks)).astype(np.int64) + 1000
+    capacity = (1.1 * WearModel.from_atlas(atlas).life(ks)).astype(np.int64) + 1000
     streams = [
         _Stream(np.random.default_rng(s), int(c), duty)
         for s, c in zip(seeds, capacity, strict=True)
@@ -385,7 +378,9 @@ def simulate_run_reference(
     _check_wear_per_event(atlas, wear_coeff)
     pad_v = atlas.spec.model.brake.pad_volume_m3
     stream = _Stream(
-        np.random.default_rng(seed), int(1.1 * expected_life(atlas, wear_coeff)) + 1000, duty
+        np.random.default_rng(seed),
+        int(1.1 * WearModel.from_atlas(atlas).life(wear_coeff)) + 1000,
+        duty,
     )
     lowers = atlas.lower_edges
     rows = []

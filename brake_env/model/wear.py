@@ -1,20 +1,17 @@
-"""What the twin needs from the atlas, precomputed once: closed-form wear and temperature.
+"""The wear clock: work <-> volume <-> life of a pad through the atlas layers (paper 2.4).
 
-Under the uniform operating distribution the mean wear per event in layer ``j`` is
-``K * w_j / V_pad`` with ``w_j = atlas.expected("wear_per_k_m3")[j]``, so the events needed
-to wear through layer ``j`` are ``span_j * V_pad / (K * w_j)`` (as in
-``brake_env.model.simulator.expected_life``). Their cumulative sum is a *work* coordinate
-``u = K * n`` (events times K) at which each layer ends; it does not depend on K. Hence
-the paper's two inverse problems are closed-form:
+Under an operating distribution the mean wear per event in layer ``j`` is
+``K * w_j / V_pad`` (for the uniform one, ``w_j = atlas.expected("wear_per_k_m3")[j]``),
+so the events needed to wear through layer ``j`` are ``span_j * V_pad / (K * w_j)``. Their
+cumulative sum is a *work* coordinate ``u = K * n`` (events times K) at which each layer
+ends; it does not depend on K. This is the one home of that clock: the simulator sizes its
+streams with it, the twin and the physics baseline predict with it, and sim2real builds it
+from a log's own operating mix. The paper's two inverse problems are closed-form:
 
 - identification (paper 2.4.1): the K that wears a fresh pad down to ``V`` in ``n`` events
   is ``work(1 -> V) / n``;
 - prognosis (paper 2.4.2): the events from ``V`` to failure at ``K`` are
   ``work(V -> failure) / K``.
-
-:class:`TemperatureTable` interpolates the atlas's mean event temperature at a batch of
-measured operating conditions for *every* layer at once (one gather per event), together
-with its derivative in slope, which the twin needs because the slope sensor is noisy.
 """
 
 from __future__ import annotations
@@ -25,6 +22,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from brake_env.model.atlas import Atlas
+from brake_env.model.lookup import trapezoid_weights
 
 F64 = NDArray[np.float64]
 
@@ -48,21 +46,35 @@ class WearModel:
     life_var_work: float
 
     @classmethod
+    def from_layer_wear(
+        cls,
+        tops: F64,
+        bottoms: F64,
+        wear_per_k_m3: F64,
+        pad_volume_m3: float,
+        cv2: F64 | None = None,
+    ) -> WearModel:
+        """The clock of layers ``tops[j] -> bottoms[j]`` worn at mean ``wear_per_k_m3[j]``
+        per event per unit K, the squared coefficient of variation ``cv2[j]`` of that wear
+        (0 if not given) setting the spread of the life."""
+        work_per_layer = (tops - bottoms) * pad_volume_m3 / wear_per_k_m3
+        # The events spent in a layer vary by ~ sqrt(n_j) * cv_j around their mean n_j.
+        var = 0.0 if cv2 is None else float((work_per_layer * cv2).sum())
+        return cls(
+            volumes=np.array(tops, dtype=np.float64),
+            lower_edges=np.array(bottoms, dtype=np.float64),
+            work_edges=np.cumsum(work_per_layer),
+            life_var_work=var,
+        )
+
+    @classmethod
     def from_atlas(cls, atlas: Atlas) -> WearModel:
-        pad_v = atlas.spec.model.brake.pad_volume_m3
+        """The clock under uniform operating conditions over the atlas's envelope."""
         w = atlas.expected("wear_per_k_m3")
-        span = atlas.volumes - atlas.lower_edges
-        work_per_layer = span * pad_v / w
-        # Spread of the per-event wear in each layer (node values, trapezoid weights): the
-        # events spent in a layer vary by ~ sqrt(n_j) * cv_j around their mean n_j.
         w2 = _uniform_mean(atlas.fields["wear_per_k_m3"] ** 2)
         cv2 = np.maximum(w2 / w**2 - 1.0, 0.0)
-        return cls(
-            volumes=atlas.volumes.copy(),
-            lower_edges=atlas.lower_edges.copy(),
-            work_edges=np.cumsum(work_per_layer),
-            life_var_work=float((work_per_layer * cv2).sum()),
-        )
+        pad_v = atlas.spec.model.brake.pad_volume_m3
+        return cls.from_layer_wear(atlas.volumes, atlas.lower_edges, w, pad_v, cv2)
 
     @property
     def life_work(self) -> float:
@@ -122,78 +134,5 @@ class WearModel:
 
 def _uniform_mean(field: F64) -> F64:
     """Trapezoid-weighted mean over the grid axes of a (layers, ns, nm, nt) array."""
-    ws = [_trapezoid(n) for n in field.shape[1:]]
+    ws = [trapezoid_weights(n) for n in field.shape[1:]]
     return np.einsum("lijk,i,j,k->l", field, *ws)
-
-
-def _trapezoid(n: int) -> F64:
-    w = np.ones(n)
-    w[[0, -1]] = 0.5
-    return w / w.sum()
-
-
-class TemperatureTable:
-    """Atlas mean event temperature and its slope derivative at measured conditions, for
-    every layer at once.
-
-    The fields are regrouped as (cells, 8 corners, layers), so one gather per event fetches
-    the 8 corner vectors over all layers; trilinear weights then combine them. Conditions
-    outside the grid are clipped to it (a noisy slope sensor reads below 0 or above the
-    maximum now and then).
-    """
-
-    def __init__(self, atlas: Atlas) -> None:
-        t = np.moveaxis(atlas.fields["temp_mean_c"], 0, -1)  # (ns, nm, nt, L)
-        ns, nm, nt, n_l = t.shape
-        corners = [
-            t[ds : ns - 1 + ds, dm : nm - 1 + dm, dt : nt - 1 + dt]
-            for ds in (0, 1)
-            for dm in (0, 1)
-            for dt in (0, 1)
-        ]
-        self._corners = np.ascontiguousarray(np.stack(corners, axis=3).reshape(-1, 8, n_l))
-        self._axes = (atlas.speed_mps, atlas.mass_kg, atlas.slope_rad)
-        self._shape = (nm - 1, nt - 1)
-        self._dslope = float(atlas.slope_rad[1] - atlas.slope_rad[0])
-
-    def _locate(self, s: F64, m: F64, th: F64) -> tuple[NDArray[np.intp], F64, F64, F64]:
-        idx, frac = [], []
-        for x, axis in zip((s, m, th), self._axes, strict=True):
-            n = axis.size
-            u = np.clip((x - axis[0]) * ((n - 1) / (axis[-1] - axis[0])), 0.0, n - 1)
-            i = np.minimum(u.astype(np.intp), n - 2)
-            idx.append(i)
-            frac.append(u - i)
-        cm, ct = self._shape
-        return (idx[0] * cm + idx[1]) * ct + idx[2], frac[0], frac[1], frac[2]
-
-    def all_layers(self, speed_mps: F64, mass_kg: F64, slope_rad: F64) -> tuple[F64, F64]:
-        """(temperature [deg C], d temperature / d slope [K/rad]), each (events, layers)."""
-        cell, fs, fm, ft = self._locate(speed_mps, mass_kg, slope_rad)
-        g = self._corners[cell]  # (n, 8, L); corner order (speed, mass, slope) bits
-        fs, fm, ft = fs[:, None], fm[:, None], ft[:, None]
-        lo = g[:, 0::2]  # slope low corners (n, 4, L), order (s, m)
-        hi = g[:, 1::2]
-        c = lo + ft[:, None] * (hi - lo)  # along slope
-        dc = (hi - lo) / self._dslope
-        temp = _bilerp(c, fs, fm)
-        dtemp = _bilerp(dc, fs, fm)
-        return temp, dtemp
-
-    def at_layers(
-        self, speed_mps: F64, mass_kg: F64, slope_rad: F64, layer: NDArray[np.intp]
-    ) -> tuple[F64, F64]:
-        """(temperature, d temperature / d slope) of each event at its own layer."""
-        cell, fs, fm, ft = self._locate(speed_mps, mass_kg, slope_rad)
-        g = self._corners[cell, :, layer]  # (n, 8)
-        lo, hi = g[:, 0::2], g[:, 1::2]
-        c = lo + ft[:, None] * (hi - lo)
-        dc = (hi - lo) / self._dslope
-        return _bilerp(c, fs, fm), _bilerp(dc, fs, fm)
-
-
-def _bilerp(c: F64, fs: F64, fm: F64) -> F64:
-    """Combine 4 corner values (axis 1, order (s0m0, s0m1, s1m0, s1m1)) bilinearly."""
-    a = c[:, 0] + fm * (c[:, 1] - c[:, 0])
-    b = c[:, 2] + fm * (c[:, 3] - c[:, 2])
-    return a + fs * (b - a)

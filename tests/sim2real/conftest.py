@@ -6,13 +6,14 @@ import pytest
 
 from brake_env.data.datasets import DatasetSpec
 from brake_env.model.atlas import Atlas, AtlasSpec, cached_atlas
+from brake_env.model.regime import WearRegime
 
 SMALL = AtlasSpec(n_speed=6, n_mass=3, n_slope=5)
 
 
 def short_runs(n: int = 4, k: float = 4e-5) -> DatasetSpec:
     """``n`` short runs to failure (K 20x the paper's: ~6000 events each)."""
-    return DatasetSpec(n_train=n, n_id=0, n_ood_slow=0, n_ood_fast=0, k_mean=k, k_std=0.1 * k)
+    return DatasetSpec(n_train=n, n_id=0, n_ood_slow=0, n_ood_fast=0, wear=WearRegime(k, 0.1 * k))
 
 
 @pytest.fixture(scope="session")

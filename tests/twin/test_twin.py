@@ -11,7 +11,7 @@ import pytest
 
 from brake_env.data.datasets import Dataset
 from brake_env.model.atlas import Atlas
-from brake_env.model.wear import TemperatureTable, WearModel
+from brake_env.model.wear import WearModel
 from brake_env.prognostics.protocol import EventBatch, iter_runs
 from tests.twin.conftest import TEST_CONFIG
 from twin import DigitalTwin, TwinCalibration, TwinConfig
@@ -28,7 +28,7 @@ def _synthetic_run(atlas: Atlas, k: float, sigma: float, seed: int) -> EventBatc
     hi = np.array([atlas.speed_mps[-1], atlas.mass_kg[-1], atlas.slope_rad[-1]])
     s, m, th = (lo + (hi - lo) * u).T
     layer = wm.layer_at_work(k * np.arange(n))
-    temp, _ = TemperatureTable(atlas).at_layers(s, m, th, layer)
+    temp, _ = atlas.lookup.profile(s, m, th, layer=layer)
     return EventBatch.from_arrays(
         {
             "event": np.arange(n),

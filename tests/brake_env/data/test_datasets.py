@@ -3,9 +3,10 @@ import pytest
 
 from brake_env.data.datasets import DatasetSpec, make_dataset, write_dataset
 from brake_env.data.schema import GROUND_TRUTH, REQUIRED, read_event_log
+from brake_env.model.regime import WearRegime
 from brake_env.model.simulator import SensorNoise
 
-SMALL = DatasetSpec(n_train=2, n_id=2, n_ood_slow=1, n_ood_fast=1, k_mean=4e-5, k_std=4e-6)
+SMALL = DatasetSpec(n_train=2, n_id=2, n_ood_slow=1, n_ood_fast=1, wear=WearRegime(4e-5, 4e-6))
 
 
 def test_plan_follows_the_paper() -> None:
@@ -66,6 +67,9 @@ def test_spec_validation() -> None:
     with pytest.raises(ValueError, match="n_train"):
         DatasetSpec(n_train=-1)
     with pytest.raises(ValueError, match="k_std"):
-        DatasetSpec(k_std=0.0)
+        DatasetSpec(wear=WearRegime(k_std=0.0))
+    with pytest.raises(ValueError, match="slow OOD mean"):
+        DatasetSpec(wear=WearRegime(2e-6, 5e-7))  # slow mean -1e-6
+    DatasetSpec(n_ood_slow=0, wear=WearRegime(2e-6, 5e-7))  # no slow OOD pads: valid
     with pytest.raises(ValueError, match="no runs"):
         DatasetSpec(n_train=0, n_id=0, n_ood_slow=0, n_ood_fast=0)

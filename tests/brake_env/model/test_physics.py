@@ -12,7 +12,8 @@ from brake_env.model.physics import (
     simulate_events,
     thermal_mass,
 )
-from brake_env.model.simulator import expected_life, simulate_runs
+from brake_env.model.simulator import simulate_runs
+from brake_env.model.wear import WearModel
 
 MODEL = BrakeModel()
 
@@ -148,7 +149,7 @@ def test_cold_start_preset_shows_why_the_default_is_hot(atlas) -> None:
 
 
 def test_nominal_life_in_target_band(atlas) -> None:
-    assert 3e4 <= float(expected_life(atlas, 2e-6)) <= 2e5
+    assert 3e4 <= float(WearModel.from_atlas(atlas).life(2e-6)) <= 2e5
 
 
 def test_parameter_validation_names_the_field() -> None:

@@ -4,10 +4,10 @@ import pytest
 from brake_env.model.simulator import (
     TRAJECTORY_ARRAYS,
     AlternatingRoutes,
-    expected_life,
     simulate_run_reference,
     simulate_runs,
 )
+from brake_env.model.wear import WearModel
 
 K_FAST = 4e-5  # 20x the nominal coefficient: short lives for quick tests
 
@@ -77,7 +77,8 @@ def test_lifetime_scales_as_one_over_k(small_atlas) -> None:
     k_life = ks * np.array([t.n_events for t in trajs])
     # Exact in expectation; the simulated lives scatter by the operating-condition noise.
     np.testing.assert_allclose(k_life, k_life.mean(), rtol=0.02)
-    np.testing.assert_allclose(ks * expected_life(small_atlas, ks), k_life.mean(), rtol=0.02)
+    life = WearModel.from_atlas(small_atlas).life(ks)
+    np.testing.assert_allclose(ks * life, k_life.mean(), rtol=0.02)
 
 
 def test_same_seed_same_trajectory_other_seed_differs(small_atlas) -> None:

@@ -1,4 +1,4 @@
-"""Closed-form wear path and the atlas temperature table."""
+"""The wear clock: work <-> volume <-> life."""
 
 from __future__ import annotations
 
@@ -6,14 +6,25 @@ import numpy as np
 import pytest
 
 from brake_env.model.atlas import Atlas
-from brake_env.model.simulator import expected_life
-from brake_env.model.wear import TemperatureTable, WearModel
+from brake_env.model.wear import WearModel
 
 
-def test_life_matches_simulator_expected_life(atlas: Atlas) -> None:
+def test_life_is_the_sum_of_layer_crossings(atlas: Atlas) -> None:
     wm = WearModel.from_atlas(atlas)
     ks = np.array([1e-6, 2e-6, 3.3e-6])
-    np.testing.assert_allclose(wm.life(ks), expected_life(atlas, ks), rtol=1e-12)
+    per_event = ks[:, None] * atlas.expected("wear_per_k_m3") / atlas.spec.model.brake.pad_volume_m3
+    expected = ((atlas.volumes - atlas.lower_edges) / per_event).sum(axis=1)
+    np.testing.assert_allclose(wm.life(ks), expected, rtol=1e-12)
+    assert wm.life_std(2e-6) > 0
+
+
+def test_constant_wear_gives_a_straight_clock() -> None:
+    tops, bottoms = np.array([1.0, 0.9, 0.8]), np.array([0.9, 0.8, 0.75])
+    wm = WearModel.from_layer_wear(tops, bottoms, np.full(3, 2e-3), pad_volume_m3=1e-4)
+    k = 2e-6
+    assert wm.life(k) == pytest.approx(0.25 * 1e-4 / (k * 2e-3), rel=1e-12)
+    assert wm.life_std(k) == 0.0
+    np.testing.assert_allclose(wm.volume_at_work([0.0, wm.life_work / 2]), [1.0, 0.875])
 
 
 def test_identify_and_rul_invert_each_other(atlas: Atlas) -> None:
@@ -33,26 +44,6 @@ def test_layer_at_work_follows_the_edges(atlas: Atlas) -> None:
     assert wm.layer_at_work(edges[0] * (1 - 1e-9)) == 0
     assert wm.layer_at_work(edges[0]) == 1  # reaching a level activates the next layer
     assert wm.layer_at_work(edges[-1] * 2) == atlas.n_layers - 1
-
-
-def test_temperature_table_matches_atlas_query(atlas: Atlas) -> None:
-    rng = np.random.default_rng(0)
-    n = 50
-    s = rng.uniform(atlas.speed_mps[0], atlas.speed_mps[-1], n)
-    m = rng.uniform(atlas.mass_kg[0], atlas.mass_kg[-1], n)
-    th = rng.uniform(atlas.slope_rad[0], atlas.slope_rad[-1], n)
-    table = TemperatureTable(atlas)
-    t_all, dt_all = table.all_layers(s, m, th)
-    layers = np.arange(atlas.n_layers)
-    ref = atlas.query(s[:, None], m[:, None], th[:, None], layer=layers[None, :])["temp_mean_c"]
-    np.testing.assert_allclose(t_all, ref, rtol=1e-12)
-    h = 1e-6  # the slope derivative is the trilinear interpolant's, away from cell faces
-    up = atlas.query(s[:, None], m[:, None], th[:, None] + h, layer=layers[None, :], clip=True)
-    np.testing.assert_allclose(dt_all, (up["temp_mean_c"] - ref) / h, rtol=1e-4, atol=1e-3)
-    lay = rng.integers(0, atlas.n_layers, n)
-    t_one, dt_one = table.at_layers(s, m, th, lay)
-    np.testing.assert_allclose(t_one, t_all[np.arange(n), lay], rtol=1e-12)
-    np.testing.assert_allclose(dt_one, dt_all[np.arange(n), lay], rtol=1e-12)
 
 
 def test_bad_volume_is_rejected(atlas: Atlas) -> None:

@@ -11,9 +11,10 @@ from brake_env.cli.demo import DemoContext
 from brake_env.cli.main import build_parser, main
 from brake_env.data.datasets import DatasetSpec, make_dataset, write_dataset
 from brake_env.model.atlas import Atlas
+from brake_env.model.regime import WearRegime
 from brake_env.prognostics.cli import demo_stage
 
-TINY = DatasetSpec(n_train=3, n_id=2, n_ood_slow=1, n_ood_fast=1, k_mean=2e-4, k_std=2e-5)
+TINY = DatasetSpec(n_train=3, n_id=2, n_ood_slow=1, n_ood_fast=1, wear=WearRegime(2e-4, 2e-5))
 
 
 @pytest.fixture(scope="module")

@@ -11,12 +11,13 @@ import pytest
 
 from brake_env.data.datasets import DatasetSpec, make_dataset
 from brake_env.model.atlas import Atlas
+from brake_env.model.regime import WearRegime
 from brake_env.prognostics.evaluation import EvaluationConfig, evaluate
 from brake_env.prognostics.plots import plot_all
 from brake_env.prognostics.protocol import EventBatch, NoPrognostics, Oracle, Predictor, RULEstimate
 
 # Large K: lives of ~1e3-3e3 events keep the test fast.
-TINY = DatasetSpec(n_train=3, n_id=2, n_ood_slow=1, n_ood_fast=1, k_mean=2e-4, k_std=2e-5)
+TINY = DatasetSpec(n_train=3, n_id=2, n_ood_slow=1, n_ood_fast=1, wear=WearRegime(2e-4, 2e-5))
 
 
 class Biased(Predictor):

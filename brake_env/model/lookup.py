@@ -1,0 +1,134 @@
+"""The atlas lookup: trilinear interpolation on the regular (speed, mass, slope) grid of
+every atlas layer (paper 2.1.2). The one home of locating conditions in the grid and
+gathering cell corners; :class:`~brake_env.model.atlas.Atlas` queries go through it, and so
+do the twin (every layer at once) and sim2real (several atlases on one grid).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+F64 = NDArray[np.float64]
+AXIS_NAMES = ("speed_mps", "mass_kg", "slope_rad")
+
+
+class GridLookup:
+    """Trilinear lookup of per-layer fields on one regular grid.
+
+    Args:
+        axes: (speed [m/s], mass [kg], slope [rad]) node coordinates, each evenly spaced.
+        fields: Name -> array of shape (layers, n_speed, n_mass, n_slope).
+    """
+
+    def __init__(self, axes: tuple[F64, F64, F64], fields: dict[str, F64]) -> None:
+        self.axes = axes
+        self.fields = fields
+        self._tables: dict[tuple[str, ...], F64] = {}
+        self._profiles: dict[str, F64] = {}
+
+    # ---------------------------------------------------------------- locate
+    def locate(self, s: F64, m: F64, th: F64, clip: bool = False) -> tuple[NDArray[np.intp], F64]:
+        """Flat cell index within a layer and fractional position (3, ...) inside the cell.
+
+        Conditions outside the grid raise ``ValueError`` unless ``clip`` is set; a node hit
+        within rounding is the node, so node values come back exactly.
+        """
+        idx, frac = [], []
+        for name, x, axis in zip(AXIS_NAMES, (s, m, th), self.axes, strict=True):
+            lo, hi = axis[0], axis[-1]
+            if x.size and not np.all(np.isfinite(x)):
+                raise ValueError(f"{name} must be finite (got NaN or inf)")
+            if clip:
+                x = np.clip(x, lo, hi)
+            elif x.size and (np.min(x) < lo - 1e-9 or np.max(x) > hi + 1e-9):
+                raise ValueError(
+                    f"{name} outside the atlas grid [{lo:.6g}, {hi:.6g}]:"
+                    f" got range [{np.min(x):.6g}, {np.max(x):.6g}]"
+                )
+            u = np.clip((x - lo) * ((axis.size - 1) / (hi - lo)), 0.0, axis.size - 1)
+            r = np.rint(u)
+            u = np.where(np.abs(u - r) < 1e-9, r, u)
+            i = np.minimum(u.astype(np.intp), axis.size - 2)
+            idx.append(i)
+            frac.append(u - i)
+        cm, ct = self.axes[1].size - 1, self.axes[2].size - 1
+        return (idx[0] * cm + idx[1]) * ct + idx[2], np.stack(frac)
+
+    # ---------------------------------------------------------------- one layer per point
+    def corner_table(self, names: tuple[str, ...]) -> F64:
+        """Fields regrouped as (layers, cells, fields, 8): each cell's corners side by side,
+        so one gather per event fetches everything the interpolation needs (cached)."""
+        if names not in self._tables:
+            a = np.stack([self.fields[n] for n in names], axis=-1)  # (L, ns, nm, nt, F)
+            n_l, ns, nm, nt, n_f = a.shape
+            corners = [
+                a[:, ds : ns - 1 + ds, dm : nm - 1 + dm, dt : nt - 1 + dt]
+                for ds in (0, 1)
+                for dm in (0, 1)
+                for dt in (0, 1)
+            ]
+            self._tables[names] = np.stack(corners, axis=-1).reshape(n_l, -1, n_f, 8)
+        return self._tables[names]
+
+    def interp(
+        self, names: tuple[str, ...], layer: NDArray[np.intp], cell: NDArray[np.intp], f: F64
+    ) -> dict[str, F64]:
+        """Fields at located points, each at its own layer (inputs broadcast together)."""
+        table = self.corner_table(names)
+        if layer.ndim == 0 or np.all(layer == layer.flat[0]):
+            g = table[int(layer.flat[0])][cell]  # one layer: gather from a cache-sized slice
+        else:
+            g = table.reshape(-1, *table.shape[2:])[layer * table.shape[1] + cell]
+        out = trilinear(g, f)
+        return {n: out[..., i] for i, n in enumerate(names)}
+
+    # ---------------------------------------------------------------- every layer per point
+    def profile(
+        self,
+        s: F64,
+        m: F64,
+        th: F64,
+        field: str = "temp_mean_c",
+        layer: NDArray[np.intp] | None = None,
+    ) -> tuple[F64, F64]:
+        """(field, d field / d slope) of 1-D points: at every layer, shape (points, layers),
+        or at each point's own ``layer``, shape (points,). Points outside the grid are
+        clipped to it (a noisy slope sensor reads beyond the envelope now and then)."""
+        if field not in self._profiles:  # (cells, 8 corners, layers): one gather per point
+            t = self.corner_table((field,))[:, :, 0, :]  # (L, cells, 8)
+            self._profiles[field] = np.ascontiguousarray(np.moveaxis(t, 0, -1))
+        cell, f = self.locate(s, m, th, clip=True)
+        g = self._profiles[field][cell] if layer is None else self._profiles[field][cell, :, layer]
+        fs, fm, ft = (x[:, None] for x in f)
+        if layer is None:
+            fs, fm, ft = fs[..., None], fm[..., None], ft[..., None]
+        lo, hi = g[:, 0::2], g[:, 1::2]  # slope-low and slope-high corners, order (s, m)
+        dslope = float(self.axes[2][1] - self.axes[2][0])
+        c = lo + ft * (hi - lo)
+        return _bilerp(c, fs[:, 0], fm[:, 0]), _bilerp((hi - lo) / dslope, fs[:, 0], fm[:, 0])
+
+
+def trilinear(g: F64, f: F64) -> F64:
+    """Trilinear interpolation of gathered corners ``g`` (..., 8), bit order (speed, mass,
+    slope), at fractions ``f`` (3, ...): 7 lerps ``(1-f) a + f b``, exact at every node."""
+    fs, fm, ft = (x[..., None] for x in f)  # broadcast over the fields axis
+    gs = 1.0 - ft
+    c = [gs * g[..., 2 * i] + ft * g[..., 2 * i + 1] for i in range(4)]  # along slope
+    gm = 1.0 - fm
+    c0, c1 = gm * c[0] + fm * c[1], gm * c[2] + fm * c[3]  # along mass
+    return (1.0 - fs) * c0 + fs * c1  # along speed
+
+
+def trapezoid_weights(n: int) -> F64:
+    """Weights of the uniform mean of a piecewise-linear function on ``n`` even nodes."""
+    w = np.ones(n)
+    w[[0, -1]] = 0.5
+    return w / w.sum()
+
+
+def _bilerp(c: F64, fs: F64, fm: F64) -> F64:
+    """Combine 4 corner values (axis 1, order (s0m0, s0m1, s1m0, s1m1)) bilinearly."""
+    a = c[:, 0] + fm * (c[:, 1] - c[:, 0])
+    b = c[:, 2] + fm * (c[:, 3] - c[:, 2])
+    return a + fs * (b - a)
