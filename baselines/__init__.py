@@ -1,4 +1,4 @@
-"""Physics-based and data-driven RUL baselines (issue 4).
+"""Physics-based and data-driven RUL baselines (paper 2.2 and 2.3).
 
 ``PhysicsPredictor`` (paper 2.3) needs numpy only. ``MLPPredictor`` and ``MLPConfig``
 (paper 2.2) live in :mod:`baselines.mlp`, which imports torch; they are loaded on first

@@ -1,4 +1,4 @@
-"""Benchmark of the atlas build and the coupled wear simulator (issue targets in brackets).
+"""Benchmark of the atlas build and the coupled wear simulator (targets in brackets).
 
 Prints:
 - default atlas build time, best of N [< 2 s on 2 cores];
@@ -24,7 +24,8 @@ import numpy as np
 from brake_env.cli.common import table, write_json
 from brake_env.data.datasets import DatasetSpec, make_dataset, seeded_plan
 from brake_env.model.atlas import Atlas, AtlasSpec
-from brake_env.model.simulator import simulate_run_reference, simulate_runs
+from brake_env.model.simulator import simulate_runs
+from brake_env.model.simulator_reference import simulate_run_reference
 
 
 def timed(n: int, fn):

@@ -1,7 +1,11 @@
-"""BrakeWear core: brake physics, the atlas, the coupled wear simulator, event logs, and the
-BrakeWear-v0 Gymnasium environment with its predictor protocol and RUL observation wrapper.
+"""BrakeWear core, in pipeline order: ``model`` (physics of one braking event, the atlas,
+the wear clock, the K distribution, the coupled run-to-failure simulator), ``data`` (event
+logs and datasets), ``prognostics`` (predictor protocol and registry, metrics, evaluation),
+``env`` (BrakeWear-v0, its vector env and the RUL observation wrapper) and ``cli``.
 
-Importing the package registers ``BrakeWear-v0``. No torch or Stable-Baselines3 here.
+Importing the package registers ``BrakeWear-v0``. No torch or Stable-Baselines3 here, and
+no import of the downstream packages (twin, baselines, agents, sim2real): they plug in
+through entry points.
 """
 
 from gymnasium.envs.registration import register, registry

@@ -33,6 +33,14 @@ def test_train_and_compare_example(tmp_path) -> None:
     assert (tmp_path / "costs.json").exists() and (tmp_path / "figures/cost_ratio.png").exists()
 
 
-def test_every_example_has_a_test() -> None:
-    tested = {"simulate_dataset", "train_and_compare"}
-    assert {p.stem for p in EXAMPLES.glob("*.py")} == tested
+def test_score_predictors_example() -> None:
+    rmse = load("score_predictors").main()
+    assert set(rmse) == {"none", "physics", "twin"} and set(rmse["twin"]) == {"id", "ood"}
+    # The twin follows each pad's wear; the physics line cannot see a fast or slow pad.
+    assert rmse["twin"]["ood"] < rmse["physics"]["ood"]
+
+
+def test_every_example_is_run_by_a_test() -> None:
+    tests = "\n".join(p.read_text() for p in Path(__file__).parent.rglob("test_*.py"))
+    untested = [p.stem for p in EXAMPLES.glob("*.py") if f'"{p.stem}"' not in tests]
+    assert not untested, f"examples without a test that loads them: {untested}"

@@ -1,4 +1,4 @@
-"""The digital twin: state estimation, wear-coefficient identification, prognosis (issue 4).
+"""The digital twin: state estimation, wear-coefficient identification, prognosis (paper 2.4).
 
 :class:`DigitalTwin` is a predictor of the ``brake_env.prognostics.protocol`` protocol: a Bayesian
 filter over the Archard coefficient K through the atlas, updated at every braking event.

@@ -129,22 +129,31 @@ class DigitalTwin(Predictor):
         return RULEstimate(*cols)
 
     def _chunk(self, ev: EventBatch) -> tuple[F64, F64, F64, F64, F64]:
+        ll = self._layer_loglik(ev)
+        post, n_after, tail, over = self._grid_posterior(ev, ll)
+        return self._prognosis(post, n_after, tail, over)
+
+    def _layer_loglik(self, ev: EventBatch) -> F64:
+        """(a) Log-likelihood (events, layers) of each event's temperature at every layer."""
         cal = self.calibration
         assert cal is not None
-        n, n_k = len(ev), self.config.n_grid
         s, m, th, temp = ev.speed_kmh / 3.6, ev.mass_kg, ev.slope_rad, ev.temp_c
         ok = np.isfinite(s) & np.isfinite(m) & np.isfinite(th) & np.isfinite(temp)
         if not ok.all():  # a dropped-out channel: the event carries no evidence
             s, m, th, temp = (np.where(ok, x, 0.0) for x in (s, m, th, temp))
-
-        # (a) every layer's atlas temperature at this event's conditions -> log-likelihood.
         t_atlas, dt_dslope = self.atlas.lookup.profile(s, m, th)
         var = cal.temp_sigma_c**2 + (dt_dslope * cal.slope_sigma_rad) ** 2
         r = (temp - cal.temp_bias_c)[:, None] - t_atlas
         ll = -0.5 * (r * r / var + np.log(var))
         ll -= ll.max(axis=1, keepdims=True)  # a constant per event: cancels in the posterior
         ll[~ok] = 0.0
+        return ll
 
+    def _grid_posterior(self, ev: EventBatch, ll: F64) -> tuple[F64, F64, int, F64]:
+        """Unnormalised log posterior over the K grid after each event (the survival term
+        included), the events done after each, and the survival overshoot of the grid
+        points from ``tail`` on (the K whose life may already have ended)."""
+        n, n_k = len(ev), self.config.n_grid
         # (b) layer of each event for each grid K: layer j+1 once K * k >= work_edges[j],
         # i.e. from grid index ceil((log work_j - log k - log K0) / dlog) on. The grid
         # log-likelihood is piecewise constant in K: scatter the jumps, then a cumsum.
@@ -175,8 +184,13 @@ class DigitalTwin(Predictor):
         over = np.maximum(n_after[:, None] - self._life[None, tail:], 0.0)
         if tail < n_k:
             post[:, tail:] -= 0.5 * (over / self._life_std[tail:]) ** 2
+        return post, n_after, tail, over
 
-        # (c) prognosis: RUL(K) = life(K) - n_after, averaged over the posterior.
+    def _prognosis(
+        self, post: F64, n_after: F64, tail: int, over: F64
+    ) -> tuple[F64, F64, F64, F64, F64]:
+        """(c) RUL(K) = life(K) - n_after averaged over the posterior; interval, volume, K."""
+        n_k = self.config.n_grid
         post -= post.max(axis=1, keepdims=True)
         w = np.exp(post, out=post)
         z = w.sum(axis=1)
@@ -234,28 +248,9 @@ def fit_calibration(
     """
     config = config or TwinConfig()
     wear = wear or WearModel.from_atlas(atlas)
-    missing = [c for c in FIT_COLUMNS if c not in train_log.columns]
-    if missing:
-        raise ValueError(f"twin.fit: the training log lacks column(s) {missing}")
-    if len(train_log) == 0:
-        raise ValueError("twin.fit: the training log is empty")
-    codes, names = pd.factorize(train_log["run_id"], sort=False)
-    if len(names) < 2:
-        raise ValueError(
-            f"twin.fit: needs at least 2 run-to-failure runs to learn a prior over K, got"
-            f" {len(names)}"
-        )
-    event = train_log["event"].to_numpy()
-    if not np.issubdtype(event.dtype, np.integer) or event.min() < 0:
-        raise ValueError("twin.fit: column 'event' must hold integers >= 0")
-    life = np.zeros(len(names), dtype=np.int64)
-    np.maximum.at(life, codes, event.astype(np.int64))
-    life += 1  # each run ends at its failure event: life = last event index + 1
-    if life.min() < 2:
-        bad = names[int(np.argmin(life))]
-        raise ValueError(f"twin.fit: run {bad!r} has fewer than 2 events")
+    codes, event, life = _training_lives(train_log)
     log_k = np.log(wear.life_work / life)
-    n = len(names)
+    n = life.size
     scale = max(float(np.std(log_k, ddof=1)), config.min_prior_log_std) * math.sqrt(1 + 1 / n)
 
     # Noise model along each run's expected path, on evenly strided events.
@@ -286,6 +281,34 @@ def fit_calibration(
         slope_sigma_rad=math.sqrt(b),
         n_runs=n,
     )
+
+
+def _training_lives(
+    train_log: pd.DataFrame,
+) -> tuple[NDArray[np.intp], NDArray[np.int64], NDArray[np.int64]]:
+    """Run code of each row, event of each row and life of each run of a training log of
+    run-to-failure runs, after checking it."""
+    missing = [c for c in FIT_COLUMNS if c not in train_log.columns]
+    if missing:
+        raise ValueError(f"twin.fit: the training log lacks column(s) {missing}")
+    if len(train_log) == 0:
+        raise ValueError("twin.fit: the training log is empty")
+    codes, names = pd.factorize(train_log["run_id"], sort=False)
+    if len(names) < 2:
+        raise ValueError(
+            f"twin.fit: needs at least 2 run-to-failure runs to learn a prior over K, got"
+            f" {len(names)}"
+        )
+    event = train_log["event"].to_numpy()
+    if not np.issubdtype(event.dtype, np.integer) or event.min() < 0:
+        raise ValueError("twin.fit: column 'event' must hold integers >= 0")
+    life = np.zeros(len(names), dtype=np.int64)
+    np.maximum.at(life, codes, event.astype(np.int64))
+    life += 1  # each run ends at its failure event: life = last event index + 1
+    if life.min() < 2:
+        bad = names[int(np.argmin(life))]
+        raise ValueError(f"twin.fit: run {bad!r} has fewer than 2 events")
+    return codes, event, life
 
 
 def _nonneg_line(x: F64, y: F64) -> tuple[float, float]:

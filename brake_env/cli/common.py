@@ -45,7 +45,12 @@ def load_atlas(args: argparse.Namespace, preset: str | None = None) -> Atlas:
         return cached_atlas(spec, args.cache_dir, getattr(args, "rebuild", False), bar.update)
 
 
-def table(rows: list[list[str]]) -> str:
+def table(rows: list[list[str]], markdown: bool = False) -> str:
+    """Rows (the first is the header) as right-aligned columns, or as a Markdown table."""
+    if markdown:
+        head = "| " + " | ".join(rows[0]) + " |"
+        rule = "|" + "|".join("---" for _ in rows[0]) + "|"
+        return "\n".join([head, rule, *("| " + " | ".join(r) + " |" for r in rows[1:])])
     widths = [max(len(r[i]) for r in rows) for i in range(len(rows[0]))]
     lines = ["  ".join(c.rjust(w) for c, w in zip(r, widths, strict=True)) for r in rows]
     lines.insert(1, "  ".join("-" * w for w in widths))

@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from matplotlib.axes import Axes
 from matplotlib.figure import Figure  # no pyplot: no global state, no display backend
 
 from brake_env.model.atlas import Atlas
@@ -28,12 +29,18 @@ def plot_calibration(
 ) -> Path:
     """Four panels: mu, H and mu*H against T; wear per event, mean temperature and the
     severe event against remaining volume. ``compare`` adds other calibrations' curves."""
-    atlases = {"default": atlas, **(compare or {})}
     fig = Figure(figsize=(11, 8))
     ax = fig.subplots(2, 2)
+    _materials_panel(ax[0, 0], atlas)
+    _wear_and_temperature_panels(ax[0, 1], ax[1, 0], {"default": atlas, **(compare or {})})
+    _severe_event_panel(ax[1, 1], atlas)
+    fig.tight_layout()
+    return _save(fig, path)
+
+
+def _materials_panel(a: Axes, atlas: Atlas) -> None:
     t = np.linspace(0, 900, 400)
     mu, h = friction(t, atlas.spec.model.friction), hardness_mpa(t, atlas.spec.model.hardness)
-    a = ax[0, 0]
     a.plot(t, mu * h, "k", label=r"$\mu H$ [MPa]  (wear $\propto E/(\mu H)$)")
     a.plot(t, 200 * mu, "tab:blue", label=r"$200\,\mu$")
     a.plot(t, h, "tab:orange", label="H [MPa]")
@@ -48,34 +55,37 @@ def plot_calibration(
     a.set(xlabel="temperature [°C]", title="Friction and hot hardness (paper Tables 1, 3)")
     a.legend(fontsize=8)
 
+
+def _wear_and_temperature_panels(wear_ax: Axes, temp_ax: Axes, atlases: dict[str, Atlas]) -> None:
     for name, at in atlases.items():
         w = at.expected("wear_per_k_m3")
-        ax[0, 1].plot(at.volumes * 100, w / w[0], label=f"{name} (end/fresh {w[-1] / w[0]:.3f})")
-        ax[1, 0].plot(at.volumes * 100, at.expected("temp_mean_c"), label=name)
-    ax[0, 1].axhline(1.2, color="grey", ls=":", label="target 1.2")
-    ax[0, 1].set(
+        wear_ax.plot(at.volumes * 100, w / w[0], label=f"{name} (end/fresh {w[-1] / w[0]:.3f})")
+        temp_ax.plot(at.volumes * 100, at.expected("temp_mean_c"), label=name)
+    wear_ax.axhline(1.2, color="grey", ls=":", label="target 1.2")
+    wear_ax.set(
         xlabel="remaining pad volume [%]",
         ylabel="mean wear per event / fresh pad",
         title="Wear acceleration (uniform operating conditions)",
     )
-    ax[0, 1].invert_xaxis()
-    ax[0, 1].legend(fontsize=8)
+    atlas = atlases["default"]
     lo = atlas.fields["temp_mean_c"].reshape(atlas.n_layers, -1)
-    ax[1, 0].fill_between(
+    temp_ax.fill_between(
         atlas.volumes * 100, lo.min(1), lo.max(1), alpha=0.2, label="default: range over the grid"
     )
-    ax[1, 0].set(
+    temp_ax.set(
         xlabel="remaining pad volume [%]",
         ylabel="mean event temperature [°C]",
         title="Temperature rises as the pad thins",
     )
-    ax[1, 0].invert_xaxis()
-    ax[1, 0].legend(fontsize=8)
+    for a in (wear_ax, temp_ax):
+        a.invert_xaxis()
+        a.legend(fontsize=8)
 
+
+def _severe_event_panel(a: Axes, atlas: Atlas) -> None:
     v, m, th = atlas.spec.model.envelope.severe_event
     vols = np.linspace(1.0, max(atlas.failure_volume - 0.05, 0.01), 300)
     r = simulate_events(v, m, th, vols, atlas.spec.model)
-    a = ax[1, 1]
     lines = a.plot(vols * 100, r.stop_dist_m, "tab:purple", label="stopping distance [m]")
     a2 = a.twinx()
     lines += a2.plot(vols * 100, r.temp_peak_c, "tab:red", label="peak temperature [°C]")
@@ -95,8 +105,6 @@ def plot_calibration(
     a2.set_ylabel("peak temperature [°C]")
     a.invert_xaxis()
     a.legend(handles=lines, loc="upper left", fontsize=8)
-    fig.tight_layout()
-    return _save(fig, path)
 
 
 def plot_volume_trajectories(runs: list[tuple[str, str, Trajectory]], path: str | Path) -> Path:

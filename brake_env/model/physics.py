@@ -125,6 +125,34 @@ def simulate_events(
         The per-event response; fields of events that could not stop are NaN.
     """
     model = model or BrakeModel()
+    v0, m, theta, vol, t_start, shape = _event_inputs(
+        speed_mps, mass_kg, slope_rad, volume_frac, model, start_temp_c
+    )
+    rates = _EventRates(v0, m, theta, vol, model, modifier)
+    y = np.zeros((_N_STATE, v0.size))
+    y[_T] = t_start
+    h = 1.0 / model.n_steps
+    for i in range(model.n_steps):  # RK4 in s = 1 - v / v0: every event stops at s = 1
+        s = i * h
+        k1 = rates(s, y)
+        k2 = rates(s + 0.5 * h, y + 0.5 * h * k1)
+        k3 = rates(s + 0.5 * h, y + 0.5 * h * k2)
+        k4 = rates(s + h, y + h * k3)
+        y = y + (h / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+        # Runaway states overflow harmlessly; keep them finite until they are NaN-ed below.
+        y[:, rates.failed] = 0.0
+    return _response(y, ~rates.failed, shape, rates.slide_ratio)
+
+
+def _event_inputs(
+    speed_mps: ArrayLike,
+    mass_kg: ArrayLike,
+    slope_rad: ArrayLike,
+    volume_frac: ArrayLike,
+    model: BrakeModel,
+    start_temp_c: ArrayLike | None,
+) -> tuple[F64, F64, F64, F64, F64, tuple[int, ...]]:
+    """Inputs broadcast together and flattened, checked; with their common shape."""
     v0, m, theta, vol = np.broadcast_arrays(
         *(np.asarray(x, dtype=np.float64) for x in (speed_mps, mass_kg, slope_rad, volume_frac))
     )
@@ -138,65 +166,73 @@ def simulate_events(
         np.asarray(model.brake.start_temp_c if start_temp_c is None else start_temp_c, float),
         shape,
     ).ravel()
+    return v0, m, theta, vol, t_start, shape
 
-    veh, brk = model.vehicle, model.brake
-    n_w = veh.n_braked_wheels
-    f_per_mu = brake_force_per_mu(model)  # total tyre force per unit mu [N]
-    slide_ratio = brk.effective_radius_m / veh.wheel_radius_m
-    wear_force = brk.normal_force_n * 1e-6  # N per MPa of hardness, so wear comes out in m^3
-    c_th = thermal_mass(vol, model)
-    # Net resisting acceleration apart from the brake: rolling resistance minus gravity.
-    a_ext = veh.rolling_resistance * GRAVITY * np.cos(theta) - GRAVITY * np.sin(theta)
-    inv_m = 1.0 / m
 
-    failed = np.zeros(v0.shape, dtype=bool)
+class _EventRates:
+    """d(state)/ds of a batch of events with v = v0 (1 - s); flags (``failed``) the events
+    whose deceleration reaches zero: they can no longer stop."""
 
-    def rates(s: float, y: F64) -> F64:
-        """d(state)/ds with v = v0 (1 - s); flags events whose deceleration reaches zero."""
+    def __init__(
+        self,
+        v0: F64,
+        m: F64,
+        theta: F64,
+        vol: F64,
+        model: BrakeModel,
+        modifier: EventModifier | None,
+    ) -> None:
+        veh, brk = model.vehicle, model.brake
+        self.v0, self.vol, self.model, self.modifier = v0, vol, model, modifier
+        self.n_w = veh.n_braked_wheels
+        self.f_per_mu = brake_force_per_mu(model)  # total tyre force per unit mu [N]
+        self.slide_ratio = brk.effective_radius_m / veh.wheel_radius_m
+        self.wear_force = brk.normal_force_n * 1e-6  # N per MPa of hardness: wear in m^3
+        self.p_line = brk.line_pressure_pa
+        self.c_th = thermal_mass(vol, model)
+        # Net resisting acceleration apart from the brake: rolling resistance minus gravity.
+        self.a_ext = veh.rolling_resistance * GRAVITY * np.cos(theta) - GRAVITY * np.sin(theta)
+        self.inv_m = 1.0 / m
+        self.failed = np.zeros(v0.shape, dtype=bool)
+
+    def __call__(self, s: float, y: F64) -> F64:
+        model, mod, vol = self.model, self.modifier, self.vol
         temp = y[_T]
-        v = v0 * (1.0 - s)
-        f_brake = friction(temp, model.friction) * f_per_mu
-        if modifier is not None:
-            v_slide = v * slide_ratio
-            p_line = brk.line_pressure_pa
-            f_brake = f_brake * modifier.friction_factor(temp, v_slide, p_line, vol)
-        a = f_brake * inv_m + a_ext
-        failed[:] |= a <= 0.0
-        dt_ds = v0 / np.maximum(a, 1e-9)  # dt/ds = v0 / a; clipped where failure is flagged
-        power = f_brake / n_w * v  # heat into one brake [W]
+        v = self.v0 * (1.0 - s)
+        f_brake = friction(temp, model.friction) * self.f_per_mu
+        if mod is not None:
+            v_slide = v * self.slide_ratio
+            f_brake = f_brake * mod.friction_factor(temp, v_slide, self.p_line, vol)
+        a = f_brake * self.inv_m + self.a_ext
+        self.failed[:] |= a <= 0.0
+        dt_ds = self.v0 / np.maximum(a, 1e-9)  # dt/ds = v0 / a; clipped where failure is flagged
+        power = f_brake / self.n_w * v  # heat into one brake [W]
         out = np.empty_like(y)
-        out[_T] = power / c_th * dt_ds
+        out[_T] = power / self.c_th * dt_ds
         out[_TIME] = dt_ds
         out[_DIST] = v * dt_ds
-        out[_WEAR] = wear_force * slide_ratio * v / hardness_mpa(temp, model.hardness) * dt_ds
-        if modifier is not None:
-            out[_T] *= modifier.heat_fraction(temp, v_slide, p_line, vol)
-            out[_WEAR] *= modifier.wear_factor(temp, v_slide, p_line, vol)
+        out[_WEAR] = (
+            self.wear_force * self.slide_ratio * v / hardness_mpa(temp, model.hardness) * dt_ds
+        )
+        if mod is not None:
+            out[_T] *= mod.heat_fraction(temp, v_slide, self.p_line, vol)
+            out[_WEAR] *= mod.wear_factor(temp, v_slide, self.p_line, vol)
         out[_TINT] = temp * dt_ds
         out[_WORK] = power * dt_ds
         return out
 
-    y = np.zeros((_N_STATE, v0.size))
-    y[_T] = t_start
-    h = 1.0 / model.n_steps
-    for i in range(model.n_steps):
-        s = i * h
-        k1 = rates(s, y)
-        k2 = rates(s + 0.5 * h, y + 0.5 * h * k1)
-        k3 = rates(s + 0.5 * h, y + 0.5 * h * k2)
-        k4 = rates(s + h, y + h * k3)
-        y = y + (h / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
-        # Runaway states overflow harmlessly; keep them finite until they are NaN-ed below.
-        y[:, failed] = 0.0
 
-    stopped = ~failed
+def _response(
+    y: F64, stopped: NDArray[np.bool_], shape: tuple[int, ...], slide: float
+) -> EventResponse:
+    """The per-event record of the final states; NaN where an event could not stop."""
     nan_if_failed = lambda x: np.where(stopped, x, np.nan).reshape(shape)  # noqa: E731
     dist = y[_DIST]
     return EventResponse(
         stopped=stopped.reshape(shape),
         stop_time_s=nan_if_failed(y[_TIME]),
         stop_dist_m=nan_if_failed(dist),
-        sliding_dist_m=nan_if_failed(dist * slide_ratio),
+        sliding_dist_m=nan_if_failed(dist * slide),
         temp_mean_c=nan_if_failed(y[_TINT] / np.where(stopped, y[_TIME], 1.0)),
         temp_peak_c=nan_if_failed(y[_T]),
         wear_per_k_m3=nan_if_failed(y[_WEAR]),

@@ -8,8 +8,9 @@ takes the volume below the critical volume (the severe event can then no longer 
 Within a layer the events are independent and identically distributed, so a whole layer is
 one cumulative sum. The simulation loops over layers (~80), vectorised over all runs at once,
 never over events. Each run owns a random stream (``SeedSequence.spawn``), so its trajectory
-does not depend on how many runs are simulated beside it, and ``simulate_run_reference`` (a
-literal per-event loop over the same stream) reproduces it exactly.
+does not depend on how many runs are simulated beside it, and
+:func:`brake_env.model.simulator_reference.simulate_run_reference` (a literal per-event
+loop over the same stream) reproduces it exactly.
 """
 
 from __future__ import annotations
@@ -25,7 +26,7 @@ from brake_env.model.atlas import Atlas
 from brake_env.model.wear import WearModel
 
 F64 = NDArray[np.float64]
-_RESPONSE = ("temp_mean_c", "stop_dist_m", "wear_per_k_m3")
+RESPONSE_FIELDS = ("temp_mean_c", "stop_dist_m", "wear_per_k_m3")
 _CHUNK_MIN = 4096
 _BATCH_EVENTS = 16_384
 # Per-event arrays of a Trajectory, in field order.
@@ -142,7 +143,7 @@ class AlternatingRoutes:
         return out
 
 
-class _Stream:
+class ConditionStream:
     """A run's operating conditions: uniform triples drawn in order, extended on demand."""
 
     def __init__(
@@ -197,28 +198,49 @@ def simulate_runs(
         raise ValueError(
             f"wear coefficients must be finite and > 0, got {ks[(ks <= 0) | ~np.isfinite(ks)]}"
         )
-    _check_wear_per_event(atlas, float(ks.max()))
-    n_runs = ks.size
-    pad_v = atlas.spec.model.brake.pad_volume_m3
-    mean_w = atlas.expected("wear_per_k_m3")
+    check_wear_per_event(atlas, float(ks.max()))
     capacity = (1.1 * WearModel.from_atlas(atlas).life(ks)).astype(np.int64) + 1000
-    streams = [
-        _Stream(np.random.default_rng(s), int(c), duty)
-        for s, c in zip(seeds, capacity, strict=True)
-    ]
-    outs = [_RunColumns(int(c)) for c in capacity]
-    pos = np.zeros(n_runs, dtype=np.int64)
-    vol = np.ones(n_runs)
-    lowers = atlas.lower_edges
+    runs = _Runs(atlas, ks, seeds, capacity, duty)
+    for j in range(atlas.n_layers):
+        runs.cross_layer(j, interpolate_layers)
+        if progress:
+            progress(1)
+    return [runs.outs[r].trajectory(float(ks[r]), float(runs.vol[r])) for r in range(ks.size)]
 
-    for j, lower in enumerate(lowers):
+
+class _Runs:
+    """The state of runs simulated together: streams, output columns, position and volume."""
+
+    def __init__(
+        self,
+        atlas: Atlas,
+        ks: F64,
+        seeds: Sequence[np.random.SeedSequence],
+        capacity: NDArray[np.int64],
+        duty: AlternatingRoutes | None,
+    ) -> None:
+        self.atlas, self.ks = atlas, ks
+        self.streams = [
+            ConditionStream(np.random.default_rng(s), int(c), duty)
+            for s, c in zip(seeds, capacity, strict=True)
+        ]
+        self.outs = [RunColumns(int(c)) for c in capacity]
+        self.pos = np.zeros(ks.size, dtype=np.int64)
+        self.vol = np.ones(ks.size)
+
+    def cross_layer(self, j: int, interpolate: bool) -> None:
+        """Advance every run still above layer j's lower edge down to it, in blocks."""
+        atlas, ks, vol = self.atlas, self.ks, self.vol
+        lower = atlas.lower_edges[j]
         alive = np.flatnonzero(vol > lower)  # runs not yet down to this layer's lower edge
         # Volume = layer start - wear accumulated in the layer, summed in event order.
-        start, acc = vol.copy(), np.zeros(n_runs)
+        start, acc = vol.copy(), np.zeros(ks.size)
         # Block: expected events to cross the layer with a margin, so a second pass is rare.
         # Runs of similar block size go together so that slow runs do not pad fast ones, in
         # batches of ~16k events: arrays that fit in cache are several times faster.
-        n_exp = np.maximum(vol[alive] - lower, 0.0) * pad_v / (ks[alive] * mean_w[j])
+        pad_v = atlas.spec.model.brake.pad_volume_m3
+        mean_w = atlas.expected("wear_per_k_m3")[j]
+        n_exp = np.maximum(vol[alive] - lower, 0.0) * pad_v / (ks[alive] * mean_w)
         blocks = np.ceil(1.15 * n_exp + 6.0 * np.sqrt(n_exp) + 16).astype(np.int64)
         groups = np.ceil(np.log(blocks) / np.log(1.25)).astype(np.int64)
         for g in np.unique(groups):
@@ -226,41 +248,36 @@ def simulate_runs(
             per_batch = max(1, _BATCH_EVENTS // block)
             for b0 in range(0, members.size, per_batch):
                 todo, size = members[b0 : b0 + per_batch], block
-                while todo.size:
-                    u = np.stack([streams[r].take(int(pos[r]), size) for r in todo])
-                    sp, m, th = conditions_from_uniform(atlas, u)
-                    temp, dist, dv, cum = _layer_block(
-                        atlas, j, sp, m, th, ks[todo], start[todo], acc[todo], interpolate_layers
-                    )
-                    after = start[todo, None] - cum
-                    crossed = after <= lower  # reaching a level activates its layer
-                    done = crossed.any(axis=1)
-                    # Events kept per run: up to the crossing one, or the whole block if none.
-                    n_keep = np.where(done, np.argmax(crossed, axis=1) + 1, size)
-                    for i, r in enumerate(todo):
-                        c = n_keep[i]
-                        outs[r].append(
-                            sp[i, :c],
-                            m[i, :c],
-                            th[i, :c],
-                            temp[i, :c],
-                            dist[i, :c],
-                            dv[i, :c],
-                            vol[r],
-                            after[i, : c - 1],
-                            j,
-                        )
-                        vol[r], acc[r] = after[i, c - 1], cum[i, c - 1]
-                        pos[r] += c
-                    todo = todo[~done]
+                while todo.size:  # runs that did not cross go on with a doubled block
+                    todo = self._block(j, todo, size, start, acc, interpolate)
                     size *= 2
-        if progress:
-            progress(1)
 
-    return [outs[r].trajectory(float(ks[r]), float(vol[r])) for r in range(n_runs)]
+    def _block(
+        self, j: int, todo: NDArray[np.intp], size: int, start: F64, acc: F64, interpolate: bool
+    ) -> NDArray[np.intp]:
+        """Simulate ``size`` events of each run in ``todo`` in layer j; keep each run's
+        events up to the one crossing the layer's lower edge. Returns the runs not done."""
+        atlas, vol = self.atlas, self.vol
+        u = np.stack([self.streams[r].take(int(self.pos[r]), size) for r in todo])
+        sp, m, th = conditions_from_uniform(atlas, u)
+        temp, dist, dv, cum = _layer_block(
+            atlas, j, sp, m, th, self.ks[todo], start[todo], acc[todo], interpolate
+        )
+        after = start[todo, None] - cum
+        crossed = after <= atlas.lower_edges[j]  # reaching a level activates its layer
+        done = crossed.any(axis=1)
+        # Events kept per run: up to the crossing one, or the whole block if none.
+        n_keep = np.where(done, np.argmax(crossed, axis=1) + 1, size)
+        for i, r in enumerate(todo):
+            c = n_keep[i]
+            cols = (sp[i, :c], m[i, :c], th[i, :c], temp[i, :c], dist[i, :c], dv[i, :c])
+            self.outs[r].append(*cols, vol[r], after[i, : c - 1], j)
+            vol[r], acc[r] = after[i, c - 1], cum[i, c - 1]
+            self.pos[r] += c
+        return todo[~done]
 
 
-class _RunColumns:
+class RunColumns:
     """Per-run output columns, preallocated and grown by doubling."""
 
     _NAMES = TRAJECTORY_ARRAYS[:-1]  # all but the int16 layer
@@ -310,7 +327,7 @@ class _RunColumns:
         )
 
 
-def _check_wear_per_event(atlas: Atlas, k_max: float) -> None:
+def check_wear_per_event(atlas: Atlas, k_max: float) -> None:
     """Reject K so large that a mean event wears more than half a layer: the atlas then no
     longer resolves the coupling (and no real pad loses 0.5% in one stop)."""
     mean_end = k_max * atlas.expected("wear_per_k_m3")[-1] / atlas.spec.model.brake.pad_volume_m3
@@ -339,7 +356,7 @@ def _layer_block(
     wear per event, wear accumulated in the layer after each event).
     """
     pad_v = atlas.spec.model.brake.pad_volume_m3
-    resp = atlas.query(sp, m, th, layer=np.int64(j), fields=_RESPONSE)
+    resp = atlas.query(sp, m, th, layer=np.int64(j), fields=RESPONSE_FIELDS)
     a = k[:, None] * resp["wear_per_k_m3"] / pad_v
     if not interpolate or j + 1 >= atlas.n_layers:
         # Wear does not depend on the volume inside the layer: a cumulative sum, in event
@@ -350,7 +367,7 @@ def _layer_block(
     # wears a + (b - a) w, so x_{k+1} = (1 + (b - a) / step) x_k + a_k, a linear recurrence
     # solved in closed form with cumulative products and sums instead of an event loop.
     step = atlas.spec.layer_step
-    nxt = atlas.query(sp, m, th, layer=np.int64(j + 1), fields=_RESPONSE)
+    nxt = atlas.query(sp, m, th, layer=np.int64(j + 1), fields=RESPONSE_FIELDS)
     delta = k[:, None] * nxt["wear_per_k_m3"] / pad_v - a
     log_p = np.cumsum(np.log1p(delta / step), axis=1)  # log of prod_{i<=k} c_i
     p_next = np.exp(log_p)
@@ -361,51 +378,3 @@ def _layer_block(
     temp = (1.0 - w) * resp["temp_mean_c"] + w * nxt["temp_mean_c"]
     dist = (1.0 - w) * resp["stop_dist_m"] + w * nxt["stop_dist_m"]
     return temp, dist, x - x_before, x - (atlas.volumes[j] - start)[:, None]
-
-
-def simulate_run_reference(
-    atlas: Atlas,
-    wear_coeff: float,
-    seed: np.random.SeedSequence,
-    interpolate_layers: bool = False,
-    duty: AlternatingRoutes | None = None,
-) -> Trajectory:
-    """Literal per-event loop over the same random stream as :func:`simulate_runs` (with
-    the same ``duty``, if any).
-
-    The reference for tests and the benchmark baseline: one atlas query per event.
-    """
-    _check_wear_per_event(atlas, wear_coeff)
-    pad_v = atlas.spec.model.brake.pad_volume_m3
-    stream = _Stream(
-        np.random.default_rng(seed),
-        int(1.1 * WearModel.from_atlas(atlas).life(wear_coeff)) + 1000,
-        duty,
-    )
-    lowers = atlas.lower_edges
-    rows = []
-    j, vol, k = 0, 1.0, 0
-    layer_start, acc = 1.0, 0.0
-    while True:
-        s, m, th = conditions_from_uniform(atlas, stream.take(k, 1)[0])
-        r = atlas.query(s, m, th, layer=np.int64(j), fields=_RESPONSE)
-        if interpolate_layers and j + 1 < atlas.n_layers:
-            # Blend with the next layer by the depth of the current volume into this one.
-            w = (atlas.volumes[j] - vol) / atlas.spec.layer_step
-            r2 = atlas.query(s, m, th, layer=np.int64(j + 1), fields=_RESPONSE)
-            r = {f: (1.0 - w) * r[f] + w * r2[f] for f in _RESPONSE}
-        dv = wear_coeff * r["wear_per_k_m3"] / pad_v
-        acc += float(dv)  # accumulate like a cumulative sum within the layer
-        after = layer_start - acc
-        rows.append((s, m, th, float(r["temp_mean_c"]), float(r["stop_dist_m"]), float(dv), vol, j))
-        vol, k = after, k + 1
-        if after <= lowers[j]:
-            if after <= lowers[-1]:
-                break  # end of life
-            while after <= lowers[j]:  # the next layer whose band holds the volume
-                j += 1
-            layer_start, acc = after, 0.0
-    out = _RunColumns(len(rows))
-    sp, m, th, temp, dist, dv, v, lay = (np.array(c) for c in zip(*rows, strict=True))
-    out.append(sp, m, th, temp, dist, dv, float(v[0]), v[1:], lay)
-    return out.trajectory(float(wear_coeff), float(vol))

@@ -1,26 +1,29 @@
-"""``brakewear evaluate``: the prognostics evaluation (registered as a plug-in).
+"""``brakewear evaluate``: the prognostics evaluation (paper 2.5, Table 4, Figures 10-13).
 
 Reads the train / ID / OOD event logs of ``brakewear simulate``, fits the chosen predictors
-on the training runs, scores them on the test runs (:mod:`brake_env.prognostics.evaluation`), and
-writes ``metrics.json``, ``table.md``, the figures of paper Figures 10-13 and the MLP's
+on the training runs, scores them on the test runs (:mod:`brake_env.prognostics.evaluation`)
+and writes ``metrics.json``, ``table.md``, the figures of paper Figures 10-13 and the MLP's
 weights. The same evaluation is the demo stage ``30-evaluate``.
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import sys
 import time
 from pathlib import Path
 from typing import Any
 
+import pandas as pd
 from tqdm import tqdm
 
 from brake_env.cli.common import add_common_args, int_at_least, load_atlas, write_json
 from brake_env.cli.demo import DemoContext
 from brake_env.data.datasets import SPLITS
 from brake_env.data.schema import read_event_log
+from brake_env.model.atlas import Atlas
 from brake_env.prognostics.evaluation import Evaluation, EvaluationConfig, evaluate
 from brake_env.prognostics.plots import plot_all
 from brake_env.prognostics.protocol import Predictor
@@ -143,66 +146,87 @@ def cmd_evaluate(args: argparse.Namespace, skip_unfittable: bool = False) -> dic
     """``brakewear evaluate``; ``skip_unfittable`` drops predictors that fail to fit (demo)."""
     t_start = time.perf_counter()
     out = Path(args.out)
-    paths = find_logs(args.data)
     t0 = time.perf_counter()
-    logs = {split: read_event_log(p) for split, p in paths.items()}
+    logs = {split: read_event_log(p) for split, p in find_logs(args.data).items()}
     read_s = time.perf_counter() - t0
     atlas = load_atlas(args)
     _check_atlas(Path(args.data), atlas.content_hash)
-    predictors = {n: make_predictor(n, atlas, args.seed) for n in args.predictors}
-    if args.mlp_epochs and "data" in predictors:
-        import dataclasses
-
-        mlp = predictors["data"]
-        mlp.config = dataclasses.replace(mlp.config, epochs=args.mlp_epochs)  # type: ignore[attr-defined]
-
+    predictors = _make_predictors(args, atlas)
     skipped: dict[str, str] | None = {} if skip_unfittable else None
     fit_s = _fit_all(predictors, logs["train"], args.quiet, skipped)
     if not predictors:
         raise ValueError(f"no predictor could be fitted: {skipped}")
-    n_events = sum(len(logs[s]) for s in ("id", "ood")) * len(predictors)
     t0 = time.perf_counter()
+    ev = _predict_and_score(predictors, logs, args)
+    predict_s = time.perf_counter() - t0
+    for name, s in fit_s.items():
+        ev.metrics["models"][name]["fit_seconds"] = s
+    saved = _save_models(predictors, out)
+    figs = plot_all(ev, out / "figures")
+    ev.metrics.update(
+        data_dir=str(Path(args.data)),
+        seed=args.seed,
+        atlas_hash=atlas.content_hash,
+        saved_models=saved,
+        skipped=skipped or {},
+        figures={k: str(v.relative_to(out)) for k, v in figs.items()},
+        timing_s={
+            "read_logs": read_s,
+            "fit": fit_s,
+            "predict_and_score": predict_s,
+            "total": time.perf_counter() - t_start,
+        },
+    )
+    write_json(ev.metrics, out / "metrics.json")
+    (out / "table.md").write_text(_markdown_tables(ev) + "\n")
+    _print_results(ev, out, saved)
+    return {"metrics": ev.metrics, "evaluation": ev, "out": out}
+
+
+def _make_predictors(args: argparse.Namespace, atlas: Atlas) -> dict[str, Predictor]:
+    predictors = {n: make_predictor(n, atlas, args.seed) for n in args.predictors}
+    if args.mlp_epochs and "data" in predictors:
+        mlp = predictors["data"]
+        mlp.config = dataclasses.replace(mlp.config, epochs=args.mlp_epochs)  # type: ignore[attr-defined]
+    return predictors
+
+
+def _predict_and_score(
+    predictors: dict[str, Predictor], logs: dict[str, pd.DataFrame], args: argparse.Namespace
+) -> Evaluation:
+    n_events = sum(len(logs[s]) for s in ("id", "ood") if s in logs) * len(predictors)
     with tqdm(
         total=n_events, desc="predict", unit="event", unit_scale=True, disable=args.quiet
     ) as bar:
-        ev = evaluate(
+        return evaluate(
             predictors,
             logs,
             EvaluationConfig(batch_events=args.batch_events),
             fit=False,
             progress=lambda _name, n: bar.update(n),
         )
-    predict_s = time.perf_counter() - t0
-    for name, s in fit_s.items():
-        ev.metrics["models"][name]["fit_seconds"] = s
 
+
+def _save_models(predictors: dict[str, Predictor], out: Path) -> dict[str, list[str]]:
+    """Weights of the predictors that have any (the MLP), as files relative to ``out``."""
     saved = {}
     if "data" in predictors:
         npz, js = predictors["data"].save(out / "models" / "mlp")  # type: ignore[attr-defined]
         saved["data"] = [str(npz.relative_to(out)), str(js.relative_to(out))]
-    figs = plot_all(ev, out / "figures")
-    ev.metrics["data_dir"] = str(Path(args.data))
-    ev.metrics["seed"] = args.seed
-    ev.metrics["atlas_hash"] = atlas.content_hash
-    ev.metrics["saved_models"] = saved
-    ev.metrics["skipped"] = skipped or {}
-    ev.metrics["figures"] = {k: str(v.relative_to(out)) for k, v in figs.items()}
-    ev.metrics["timing_s"] = {
-        "read_logs": read_s,
-        "fit": fit_s,
-        "predict_and_score": predict_s,
-        "total": time.perf_counter() - t_start,
-    }
-    write_json(ev.metrics, out / "metrics.json")
-    (out / "table.md").write_text(_markdown_tables(ev) + "\n")
+    return saved
+
+
+def _print_results(ev: Evaluation, out: Path, saved: dict[str, list[str]]) -> None:
     print(ev.table())
     print()
     print(ev.summary_table())
     timing = ev.metrics["timing_s"]
-    fits = "  ".join(f"{k} {v:.1f} s" for k, v in fit_s.items())
-    print(f"\nfit: {fits}  predict+score: {predict_s:.1f} s  total: {timing['total']:.1f} s")
+    fits = "  ".join(f"{k} {v:.1f} s" for k, v in timing["fit"].items())
+    print(
+        f"\nfit: {fits}  predict+score: {timing['predict_and_score']:.1f} s"
+        f"  total: {timing['total']:.1f} s"
+    )
     print(f"wrote {out}/metrics.json, table.md, figures/" + (", models/" if saved else ""))
-    return {"metrics": ev.metrics, "evaluation": ev, "out": out}
 
 
 def _markdown_tables(ev: Evaluation) -> str:

@@ -24,6 +24,7 @@ from numpy.typing import NDArray
 
 from brake_env.prognostics import metrics as m
 from brake_env.prognostics.protocol import EventBatch, RULEstimate, RULPredictor, iter_runs
+from brake_env.prognostics.tables import rmse_table, summary_table
 
 F64 = NDArray[np.float64]
 TEST_SPLITS = ("id", "ood")
@@ -156,18 +157,12 @@ def evaluate(
             without ground truth.
     """
     cfg = config or EvaluationConfig()
-    if not predictors:
-        raise ValueError("evaluate: no predictors given")
-    splits = [s for s in TEST_SPLITS if s in logs]
-    if not splits:
-        raise ValueError(f"evaluate: no test log; give one of {list(TEST_SPLITS)}")
-    if fit and "train" not in logs:
-        raise ValueError("evaluate: the predictors need a 'train' log to be fitted on")
-    runs = {s: _test_runs(s, logs[s]) for s in splits}
-    split_info = {s: _split_info(r) for s, r in runs.items()}
-    samples = {s: _sample_run(s, r) for s, r in runs.items()}
-
-    out: dict[str, Any] = {"config": _jsonable(asdict(cfg)), "splits": split_info, "models": {}}
+    runs = _check_inputs(predictors, logs, fit)
+    out: dict[str, Any] = {
+        "config": _jsonable(asdict(cfg)),
+        "splits": {s: _split_info(r) for s, r in runs.items()},
+        "models": {},
+    }
     traces: dict[str, dict[str, dict[str, pd.DataFrame]]] = {}
     for name, pred in predictors.items():
         fit_s = 0.0
@@ -184,25 +179,53 @@ def evaluate(
             "splits": {},
         }
         traces[name] = {}
-        for split in splits:
-            t0 = time.perf_counter()
-            per_run: dict[str, Any] = {}
-            traces[name][split] = {}
-            for run_id, events in runs[split]:
-                est = _predict_run(pred, events, cfg.batch_events)
-                per_run[run_id] = run_metrics(est, events, cfg)
-                traces[name][split][run_id] = _trace(est, events, cfg.trace_points)
-                if progress:
-                    progress(name, len(events))
-            model["splits"][split] = {
-                "predict_seconds": time.perf_counter() - t0,
-                "events": int(sum(len(e) for _, e in runs[split])),
-                "mean": _aggregate(list(per_run.values()), np.mean),
-                "std": _aggregate(list(per_run.values()), np.std),
-                "runs": per_run,
-            }
+        for split, split_runs in runs.items():
+            report = _score_split(name, pred, split_runs, cfg, progress)
+            model["splits"][split], traces[name][split] = report
         out["models"][name] = model
+    samples = {s: _sample_run(s, r) for s, r in runs.items()}
     return Evaluation(_jsonable(out), traces, samples)
+
+
+def _check_inputs(
+    predictors: Mapping[str, RULPredictor], logs: Mapping[str, pd.DataFrame], fit: bool
+) -> dict[str, list[tuple[str, EventBatch]]]:
+    """The test runs of every test split present, after checking the inputs."""
+    if not predictors:
+        raise ValueError("evaluate: no predictors given")
+    splits = [s for s in TEST_SPLITS if s in logs]
+    if not splits:
+        raise ValueError(f"evaluate: no test log; give one of {list(TEST_SPLITS)}")
+    if fit and "train" not in logs:
+        raise ValueError("evaluate: the predictors need a 'train' log to be fitted on")
+    return {s: _test_runs(s, logs[s]) for s in splits}
+
+
+def _score_split(
+    name: str,
+    pred: RULPredictor,
+    runs: list[tuple[str, EventBatch]],
+    cfg: EvaluationConfig,
+    progress: Callable[[str, int], object] | None,
+) -> tuple[dict[str, Any], dict[str, pd.DataFrame]]:
+    """Metrics of one fitted predictor over the runs of a split, and its thinned traces."""
+    t0 = time.perf_counter()
+    per_run: dict[str, Any] = {}
+    traces: dict[str, pd.DataFrame] = {}
+    for run_id, events in runs:
+        est = _predict_run(pred, events, cfg.batch_events)
+        per_run[run_id] = run_metrics(est, events, cfg)
+        traces[run_id] = _trace(est, events, cfg.trace_points)
+        if progress:
+            progress(name, len(events))
+    report = {
+        "predict_seconds": time.perf_counter() - t0,
+        "events": int(sum(len(e) for _, e in runs)),
+        "mean": _aggregate(list(per_run.values()), np.mean),
+        "std": _aggregate(list(per_run.values()), np.std),
+        "runs": per_run,
+    }
+    return report, traces
 
 
 def run_metrics(est: RULEstimate, events: EventBatch, cfg: EvaluationConfig) -> dict[str, Any]:
@@ -339,79 +362,3 @@ def _jsonable(x: Any) -> Any:
     if isinstance(x, float | np.floating):
         return float(x) if math.isfinite(x) else None
     return x
-
-
-# ---------------------------------------------------------------------- tables
-def _render(rows: list[list[str]], markdown: bool) -> str:
-    if markdown:
-        head = "| " + " | ".join(rows[0]) + " |"
-        rule = "|" + "|".join("---" for _ in rows[0]) + "|"
-        return "\n".join([head, rule, *("| " + " | ".join(r) + " |" for r in rows[1:])])
-    widths = [max(len(r[i]) for r in rows) for i in range(len(rows[0]))]
-    lines = ["  ".join(c.rjust(w) for c, w in zip(r, widths, strict=True)) for r in rows]
-    lines.insert(1, "  ".join("-" * w for w in widths))
-    return "\n".join(lines)
-
-
-def _num(x: Any, fmt: str) -> str:
-    return "-" if x is None else format(x, fmt)
-
-
-def rmse_table(metrics: dict[str, Any], markdown: bool = False) -> str:
-    """Paper Table 4: RUL RMSE per run (R1..Rn) and mean, rows models, a block per split."""
-    blocks = []
-    for split, info in metrics["splits"].items():
-        n = len(info["runs"])
-        rows = [[f"{split.upper()} model", *(f"R{i + 1}" for i in range(n)), "Mean"]]
-        for name, model in metrics["models"].items():
-            s = model["splits"][split]
-            vals = [s["runs"][r]["rul_rmse"] for r in info["runs"]]
-            rows.append([name, *(_num(v, ".0f") for v in vals), _num(s["mean"]["rul_rmse"], ".0f")])
-        title = f"{split.upper()} runs: " + ", ".join(
-            f"R{i + 1}={r}" for i, r in enumerate(info["runs"])
-        )
-        blocks.append(
-            ("**" + title + "**" if markdown else title) + "\n\n" + _render(rows, markdown)
-        )
-    return "\n\n".join(blocks)
-
-
-def summary_table(metrics: dict[str, Any], markdown: bool = False) -> str:
-    """Means over runs: RMSE, convergence (fraction of life), RA, alpha-lambda, PHM08, states."""
-    first_model = next(iter(metrics["models"].values()))
-    tols = next(iter(first_model["splits"].values()))["mean"]["convergence_frac"]
-    rows = [
-        [
-            "model",
-            "split",
-            "RMSE",
-            "RMSE/life",
-            *(f"conv {float(t):.0%}" for t in tols),
-            "RA",
-            "a-l",
-            "PHM08",
-            "vol RMSE",
-            "K err",
-            "coverage",
-        ]
-    ]
-    for name, model in metrics["models"].items():
-        for split, s in model["splits"].items():
-            mu = s["mean"]
-            k = mu.get("k_rel_error")
-            rows.append(
-                [
-                    name,
-                    split,
-                    _num(mu["rul_rmse"], ".0f"),
-                    _num(mu["rul_rmse_frac"], ".3f"),
-                    *(_num(mu["convergence_frac"][t], ".2f") for t in tols),
-                    _num(mu["relative_accuracy"], ".2f"),
-                    _num(mu["alpha_lambda"], ".1f"),
-                    _num(mu["phm08"], ".3g"),
-                    _num(mu.get("volume_rmse"), ".4f"),
-                    _num(k["mean"] if k else None, ".3f"),
-                    _num(mu.get("interval_coverage"), ".2f"),
-                ]
-            )
-    return _render(rows, markdown)

@@ -4,9 +4,9 @@ import pytest
 from brake_env.model.simulator import (
     TRAJECTORY_ARRAYS,
     AlternatingRoutes,
-    simulate_run_reference,
     simulate_runs,
 )
+from brake_env.model.simulator_reference import simulate_run_reference
 from brake_env.model.wear import WearModel
 
 K_FAST = 4e-5  # 20x the nominal coefficient: short lives for quick tests
@@ -160,11 +160,11 @@ def test_alternating_routes_rejects_bad_blocks() -> None:
 
 
 def test_duty_applies_by_absolute_event_when_the_stream_grows() -> None:
-    from brake_env.model.simulator import _Stream
+    from brake_env.model.simulator import ConditionStream
 
     duty = AlternatingRoutes(block_events=700)
     seq = np.random.SeedSequence(8)
-    grown = _Stream(np.random.default_rng(seq), 10, duty)
+    grown = ConditionStream(np.random.default_rng(seq), 10, duty)
     # Taken in pieces, so that the stream grows several times past its first chunk.
     got = np.concatenate(
         [grown.take(a, b - a) for a, b in ((0, 4000), (4000, 7000), (7000, 12_000))]

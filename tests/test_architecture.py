@@ -1,0 +1,51 @@
+"""The import rules of DESIGN 2: imports flow one way, heavy libraries only where used."""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+DOWNSTREAM = {"twin", "baselines", "agents", "sim2real"}
+HEAVY = {"torch", "stable_baselines3"}
+
+
+def imported_packages(package: str) -> dict[str, set[str]]:
+    """Top-level packages imported anywhere in ``package`` (functions included), by file."""
+    out: dict[str, set[str]] = {}
+    for path in sorted((ROOT / package).rglob("*.py")):
+        names: set[str] = set()
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.Import):
+                names |= {a.name.split(".")[0] for a in node.names}
+            elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+                names.add(node.module.split(".")[0])
+        out[str(path.relative_to(ROOT))] = names
+    return out
+
+
+@pytest.mark.parametrize(
+    ("package", "forbidden"),
+    [
+        ("brake_env", DOWNSTREAM | HEAVY),
+        ("twin", (DOWNSTREAM - {"twin"}) | HEAVY),
+        ("baselines", DOWNSTREAM - {"baselines"}),
+        ("agents", {"sim2real"}),
+        ("sim2real", {"agents"}),
+    ],
+)
+def test_imports_flow_one_way(package: str, forbidden: set[str]) -> None:
+    bad = {f: sorted(n & forbidden) for f, n in imported_packages(package).items() if n & forbidden}
+    assert not bad, f"{package} imports what DESIGN 2 forbids: {bad}"
+
+
+def test_torch_only_in_the_mlp_and_the_agents() -> None:
+    users = {
+        f
+        for pkg in ("baselines", "sim2real")
+        for f, names in imported_packages(pkg).items()
+        if "torch" in names
+    }
+    assert users <= {"baselines/mlp.py"}
