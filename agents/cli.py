@@ -1,31 +1,39 @@
-"""``brakewear train`` and ``brakewear compare`` (registered as a plug-in of the CLI)."""
+"""``brakewear train`` and ``brakewear compare`` (registered as a plug-in of the CLI).
+
+The ``brakewear`` parser loads this module to register the commands, so it imports only
+what parsing needs; the training and the comparison (torch, SB3) are imported by the
+commands that run them (DESIGN 2; ``brakewear --help`` stays fast).
+"""
 
 from __future__ import annotations
 
 import argparse
 import math
+from collections.abc import Mapping
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from tqdm import tqdm
 
-from agents.compare import CompareConfig, Entry, run_compare
-from agents.evaluation import run_episodes, summary_rows, with_oracle_ratios
-from agents.policies import RULThreshold
-from agents.train import ALGOS, TrainedAgent, agent_env, train_agent
+from agents.hyperparameters import ALGOS
 from brake_env.cli.common import (
     add_common_args,
+    add_wear_args,
     int_at_least,
     load_atlas,
     table,
     wear_regime,
     write_json,
 )
-from brake_env.cli.demo import DemoContext
-from brake_env.env.brake_wear import BrakeWearEnv
 from brake_env.env.config import REGIMES
-from brake_env.env.wrappers import RULObservation
 from brake_env.prognostics.registry import predictor_names
+
+if TYPE_CHECKING:
+    from agents.compare import CompareConfig
+    from agents.evaluation import CostReport
+    from brake_env.cli.demo import DemoContext
+    from brake_env.model.atlas import Atlas
+    from brake_env.prognostics.protocol import Predictor
 
 
 def _names(text: str) -> tuple[str, ...]:
@@ -42,25 +50,34 @@ def _env_args(sp: argparse.ArgumentParser) -> None:
     sp.add_argument("--regime", choices=REGIMES, default="mixed", help="wear regime of new pads")
     sp.add_argument("--decision-interval", type=int_at_least(1), default=500, help="events/step")
     sp.add_argument("--episode-events", type=int_at_least(1), default=500_000, help="per episode")
+    add_wear_args(sp)
+
+
+def _env_kwargs(args: argparse.Namespace) -> dict[str, Any]:
+    """BrakeWear-v0's keyword arguments from the options of :func:`_env_args`."""
+    wear = wear_regime(args)
+    return {
+        "regime": args.regime,
+        "decision_interval": args.decision_interval,
+        "episode_events": args.episode_events,
+        "k_mean": wear.k_mean,
+        "k_std": wear.k_std,
+        "ood_shift_sigma": wear.ood_shift_sigma,
+    }
 
 
 # ---------------------------------------------------------------------- train
 def cmd_train(args: argparse.Namespace) -> dict[str, Any]:
     from agents.compare import fit_predictors
+    from agents.hyperparameters import load_hyperparams
+    from agents.train import train_agent
 
     atlas = load_atlas(args)
-    env_kwargs = {
-        "regime": args.regime,
-        "decision_interval": args.decision_interval,
-        "episode_events": args.episode_events,
-    }
     names = tuple(dict.fromkeys((args.predictor, "oracle")))
     print(f"fitting {', '.join(names)} on {args.n_train_runs} simulated training pads")
-    fitted, _ = fit_predictors(names, atlas, args.seed, args.n_train_runs)
+    fitted, _ = fit_predictors(names, atlas, args.seed, args.n_train_runs, wear_regime(args))
     hp = None
     if args.hyperparams:
-        from agents.train import load_hyperparams
-
         hp = load_hyperparams(args.predictor, args.algo, args.hyperparams)
     res = train_agent(
         fitted[args.predictor],
@@ -69,27 +86,12 @@ def cmd_train(args: argparse.Namespace) -> dict[str, Any]:
         algo=args.algo,
         timesteps=args.timesteps,
         seed=args.seed,
-        env_kwargs=env_kwargs,
+        env_kwargs=_env_kwargs(args),
         hyperparams=hp,
         progress_bar=not args.quiet,
     )
-    # Held-out check against the oracle and the predictor's threshold rule.
     seeds = [args.seed * 10_000 + 5_000 + i for i in range(args.eval_seeds)]
-    agent = TrainedAgent(args.out)
-    interval = args.decision_interval
-    entries: dict[str, Entry] = {
-        f"{args.predictor}/{args.algo}": (
-            agent,
-            agent_env(fitted[args.predictor], atlas, {**env_kwargs, "cache_pads": 32}),
-        ),
-        "oracle": (
-            RULThreshold(interval),
-            RULObservation(BrakeWearEnv(atlas=atlas, **env_kwargs), fitted["oracle"]),
-        ),
-    }
-    reports = {k: run_episodes(p, e, seeds, k) for k, (p, e) in entries.items()}
-    reports = with_oracle_ratios(reports, reports["oracle"])
-    print(table(summary_rows(reports)))
+    reports = _held_out_check(args, atlas, fitted, seeds)
     summary = {
         "train_seconds": res.seconds,
         "timesteps": res.timesteps,
@@ -102,8 +104,35 @@ def cmd_train(args: argparse.Namespace) -> dict[str, Any]:
     return summary
 
 
+def _held_out_check(
+    args: argparse.Namespace, atlas: Atlas, fitted: Mapping[str, Predictor], seeds: list[int]
+) -> dict[str, CostReport]:
+    """The trained agent and the oracle on held-out episodes, printed as a table."""
+    from agents.compare import ORACLE, Entry
+    from agents.evaluation import run_episodes, summary_rows, with_oracle_ratios
+    from agents.policies import PolicyId, RULThreshold
+    from agents.train import TrainedAgent, agent_env
+    from brake_env.env.brake_wear import BrakeWearEnv
+    from brake_env.env.wrappers import RULObservation
+
+    env_kwargs = _env_kwargs(args)
+    agent = PolicyId("agent", args.predictor, algo=args.algo)
+    predictor_env = agent_env(fitted[args.predictor], atlas, {**env_kwargs, "cache_pads": 32})
+    oracle_env = RULObservation(BrakeWearEnv(atlas=atlas, **env_kwargs), fitted["oracle"])
+    entries: dict[str, Entry] = {
+        agent.label: (TrainedAgent(args.out), predictor_env),
+        ORACLE.label: (RULThreshold(args.decision_interval), oracle_env),
+    }
+    reports = {k: run_episodes(p, e, seeds, k) for k, (p, e) in entries.items()}
+    reports = with_oracle_ratios(reports, reports[ORACLE.label])
+    print(table(summary_rows(reports)))
+    return reports
+
+
 # ---------------------------------------------------------------------- compare
 def cmd_compare(args: argparse.Namespace) -> dict[str, Any]:
+    from agents.compare import CompareConfig
+
     config = CompareConfig(
         regime=args.regime,
         decision_interval=args.decision_interval,
@@ -115,6 +144,7 @@ def cmd_compare(args: argparse.Namespace) -> dict[str, Any]:
         n_train_runs=args.n_train_runs,
         tune_seeds=args.tune_seeds,
         eval_seeds=args.eval_seeds,
+        wear=wear_regime(args),
     )
     return compare_and_report(config, args, Path(args.out))
 
@@ -125,6 +155,9 @@ def compare_and_report(
     out: Path,
     hyperparams: dict[str, dict[str, Any]] | None = None,
 ) -> dict[str, Any]:
+    """Run the comparison with progress bars; write ``costs.json`` and the figures, print
+    the table. Returns the content of ``costs.json``."""
+    from agents.compare import run_compare
     from agents.plots import plot_cost_ratios, plot_replacement_timing, plot_sensitivity
 
     atlas = load_atlas(args)
@@ -138,25 +171,26 @@ def compare_and_report(
     result = run_compare(config, atlas, out, args.seed, progress, hyperparams=hyperparams)
     for bar in bars:
         bar.close()
-    reports = result.pop("_reports")
-    write_json(_finite(result), out / "costs.json")
-    plot_cost_ratios(reports, out / "figures" / "cost_ratio.png")
+    summary = result.to_dict()
+    write_json(_finite(summary), out / "costs.json")
+    figures = out / "figures"
+    plot_cost_ratios(result.policies, figures / "cost_ratio.png")
     plot_replacement_timing(
-        reports, out / "figures" / "replacement_timing.png", config.decision_interval
+        result.policies, figures / "replacement_timing.png", config.decision_interval
     )
-    plot_sensitivity(result["sensitivity"], out / "figures" / "cost_sensitivity.png")
+    plot_sensitivity(result.sensitivity, figures / "cost_sensitivity.png")
     print(
-        f"\nregime {config.regime}, failure/planned cost {result['failure_to_planned']:g},"
-        f" {len(result['eval_seeds'])} held-out episodes of {config.episode_events} events"
+        f"\nregime {config.regime}, failure/planned cost {result.failure_to_planned:g},"
+        f" {len(result.eval_seeds)} held-out episodes of {config.episode_events} events"
     )
-    print(table(_rows(result)))
-    for r, s in result["sensitivity"].items():
-        print(f"failure/planned {r:>3}: predictors ranked {' < '.join(s['predictor_ranking'])}")
+    print(table(_rows(summary)))
+    for r, s in result.sensitivity.items():
+        print(f"failure/planned {r:>3g}: predictors ranked {' < '.join(s.predictor_ranking)}")
     print(
         f"wrote {out}/costs.json, figures/cost_ratio.png, replacement_timing.png,"
         " cost_sensitivity.png"
     )
-    return result
+    return summary
 
 
 def _rows(result: dict[str, Any]) -> list[list[str]]:
@@ -206,7 +240,8 @@ def _finite(obj: Any) -> Any:
 def demo_compare(ctx: DemoContext) -> tuple[dict[str, Any], str]:
     """The comparison on a small budget: short episodes, few seeds, one short PPO run on the
     twin (trained on a pool of 8 pads). Grids scale with the demo's pad life."""
-    from agents.train import load_hyperparams
+    from agents.compare import CompareConfig
+    from agents.hyperparameters import load_hyperparams
     from brake_env.model.wear import WearModel
 
     args = ctx.args
@@ -222,8 +257,7 @@ def demo_compare(ctx: DemoContext) -> tuple[dict[str, Any], str]:
         eval_seeds=3,
         thresholds=(0, 1, 2, 4, 8, 16, 32, 64),
         fixed_intervals=tuple(int(f * life) for f in (0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 1.0)),
-        k_mean=wear_regime(args).k_mean,
-        k_std=wear_regime(args).k_std,
+        wear=wear_regime(args),
     )
     hp = {"twin": {**load_hyperparams("twin", config.algo), "pad_pool": 8}}
     out = ctx.out / "compare"

@@ -1,11 +1,13 @@
-"""Rank RUL predictors by the maintenance cost they lead to (the testbed's headline).
+"""Rank RUL predictors by the maintenance cost they lead to (the testbed's headline; README,
+"Maintenance cost by predictor").
 
 For each predictor: an RUL-threshold policy with its threshold tuned on training seeds, and
 a trained SB3 agent. Beside them: the fixed-interval policy with its interval tuned,
 replace-on-failure, and the oracle. All are evaluated on the same held-out seeds, so they
-meet the same pads under the same operating conditions. Because the decisions of a policy
-do not depend on the cost weights, the tuning runs also give the best threshold under
-other failure-to-planned cost ratios, and the ranking under each ratio follows.
+meet the same pads under the same operating conditions (DESIGN 9: common random numbers).
+Because the decisions of a policy do not depend on the cost weights, the tuning runs also
+give the best threshold under other failure-to-planned cost ratios, and the ranking under
+each ratio follows.
 
 Episodes run seed by seed, every policy on a seed before the next seed, so the env's pad
 cache holds one seed's pads and each pad is simulated, and each predictor run over it,
@@ -15,23 +17,17 @@ once for all policies (``RULObservation(precompute=True)``).
 from __future__ import annotations
 
 import time
-from collections.abc import Callable, Mapping, Sequence
-from dataclasses import asdict, dataclass, field
+from collections.abc import Callable, Hashable, Mapping, Sequence
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 import gymnasium as gym
 import numpy as np
 
-from agents.evaluation import (
-    CostReport,
-    merge_reports,
-    ratio_per_seed,
-    run_episodes,
-    t_interval,
-    with_oracle_ratios,
-)
-from agents.policies import FixedInterval, Policy, ReplaceOnFailure, RULThreshold
+from agents.evaluation import CostReport, merge_reports, run_episodes, with_oracle_ratios
+from agents.policies import FixedInterval, Policy, PolicyId, ReplaceOnFailure, RULThreshold
+from agents.results import CompareResult, PolicyCost, RatioResult, Timing
 from brake_env.data.datasets import DatasetSpec, make_dataset
 from brake_env.env.brake_wear import BrakeWearEnv
 from brake_env.env.config import REGIMES, CostWeights
@@ -42,6 +38,13 @@ from brake_env.prognostics.protocol import Predictor
 from brake_env.prognostics.registry import make_predictor, predictor_names
 
 Entry = tuple[Policy, gym.Env[Any, Any]]
+# progress(label, total) returns a callback advanced by 1 per episode.
+Progress = Callable[[str, int], Callable[[int], object]]
+K = TypeVar("K", bound=Hashable)
+
+ORACLE = PolicyId("oracle")
+REPLACE_ON_FAILURE = PolicyId("replace-on-failure")
+FIXED_INTERVAL = PolicyId("fixed-interval")
 
 
 @dataclass(frozen=True)
@@ -64,7 +67,7 @@ class CompareConfig:
             default weights (ratio 10) are the headline.
         thresholds: Candidate RUL thresholds, in decision intervals.
         fixed_intervals: Candidate replacement ages of the fixed-interval policy [events].
-        k_mean, k_std: Wear-coefficient distribution of training and ID pads [-].
+        wear: Distribution of K of the training pads and of the env's new pads.
     """
 
     regime: str = "mixed"
@@ -81,8 +84,7 @@ class CompareConfig:
     failure_ratios: tuple[float, ...] = (5.0, 10.0, 50.0)
     thresholds: tuple[float, ...] = (0, 1, 1.5, 2, 3, 4, 6, 8, 12, 16, 24, 32, 48, 64, 96)
     fixed_intervals: tuple[int, ...] = tuple(range(30_000, 135_001, 5_000))
-    k_mean: float = 2e-6
-    k_std: float = 2e-7
+    wear: WearRegime = field(default_factory=WearRegime)
 
     def __post_init__(self) -> None:
         if self.regime not in REGIMES:
@@ -98,32 +100,43 @@ class CompareConfig:
             raise ValueError("tune_seeds and eval_seeds must be >= 1")
         if not self.thresholds or not self.fixed_intervals:
             raise ValueError("give at least one threshold and one fixed interval")
+        if not isinstance(self.wear, WearRegime):
+            raise TypeError(f"wear must be a WearRegime, got {self.wear!r}")
 
     @property
     def env_kwargs(self) -> dict[str, Any]:
+        """BrakeWear-v0's keyword arguments."""
         return {
             "regime": self.regime,
             "ood_share": self.ood_share,
             "decision_interval": self.decision_interval,
             "episode_events": self.episode_events,
-            "k_mean": self.k_mean,
-            "k_std": self.k_std,
+            "k_mean": self.wear.k_mean,
+            "k_std": self.wear.k_std,
+            "ood_shift_sigma": self.wear.ood_shift_sigma,
         }
+
+    def to_dict(self) -> dict[str, Any]:
+        """The fields as JSON-ready values, the wear regime's flat (like ``env_kwargs``)."""
+        d = asdict(self)
+        d.update(d.pop("wear"))
+        return d
 
 
 def evaluate_seed_major(
-    entries: Mapping[str, Entry],
+    entries: Mapping[K, Entry],
     seeds: Sequence[int],
     progress: Callable[[int], object] | None = None,
-) -> dict[str, CostReport]:
-    """``run_episodes`` for every entry, seed by seed (cache-friendly), merged per entry."""
-    parts: dict[str, list[CostReport]] = {k: [] for k in entries}
+) -> dict[K, CostReport]:
+    """``run_episodes`` for every entry, seed by seed (cache-friendly), merged per entry.
+    Each report is named ``str(key)`` (a :class:`PolicyId`'s label)."""
+    parts: dict[K, list[CostReport]] = {k: [] for k in entries}
     for seed in seeds:
-        for name, (policy, env) in entries.items():
-            parts[name].append(run_episodes(policy, env, [seed], name))
+        for key, (policy, env) in entries.items():
+            parts[key].append(run_episodes(policy, env, [seed], str(key)))
             if progress:
                 progress(1)
-    return {name: merge_reports(reps) for name, reps in parts.items()}
+    return {key: merge_reports(reps) for key, reps in parts.items()}
 
 
 def fit_predictors(
@@ -131,13 +144,12 @@ def fit_predictors(
     atlas: Atlas,
     seed: int,
     n_train_runs: int,
-    k_mean: float = 2e-6,
-    k_std: float = 2e-7,
+    wear: WearRegime | None = None,
 ) -> tuple[dict[str, Predictor], dict[str, float]]:
-    """Each named predictor fitted on ``n_train_runs`` freshly simulated training pads; and
-    the seconds each fit took."""
+    """Each named predictor fitted on ``n_train_runs`` freshly simulated training pads whose
+    K follows ``wear`` (default :class:`WearRegime`'s); and the seconds each fit took."""
     spec = DatasetSpec(
-        n_train=n_train_runs, n_id=0, n_ood_slow=0, n_ood_fast=0, wear=WearRegime(k_mean, k_std)
+        n_train=n_train_runs, n_id=0, n_ood_slow=0, n_ood_fast=0, wear=wear or WearRegime()
     )
     train_log = make_dataset(atlas, spec, seed).logs["train"]
     fitted, seconds = {}, {}
@@ -148,16 +160,52 @@ def fit_predictors(
     return fitted, seconds
 
 
+@dataclass(frozen=True)
+class _Testbed:
+    """What the stages of one comparison share: one env (with a pad cache) seen bare and
+    through each predictor, and the seeds of the tuning and the held-out episodes."""
+
+    config: CompareConfig
+    base: BrakeWearEnv
+    wrapped: dict[str, RULObservation]
+    tune_seeds: tuple[int, ...]
+    eval_seeds: tuple[int, ...]
+
+    @classmethod
+    def make(
+        cls, config: CompareConfig, atlas: Atlas, predictors: Mapping[str, Predictor], seed: int
+    ) -> _Testbed:
+        base = BrakeWearEnv(atlas=atlas, cache_pads=64, **config.env_kwargs)
+        wrapped = {n: RULObservation(base, p, precompute=True) for n, p in predictors.items()}
+        tune = tuple(seed * 10_000 + 1_000 + i for i in range(config.tune_seeds))
+        held_out = tuple(seed * 10_000 + 5_000 + i for i in range(config.eval_seeds))
+        return cls(config, base, wrapped, tune, held_out)
+
+    @property
+    def costs(self) -> CostWeights:
+        return self.base.config.costs
+
+    @property
+    def ratios(self) -> tuple[float, ...]:
+        """The sensitivity study's failure-to-planned ratios and the env's own."""
+        return tuple(dict.fromkeys((*self.config.failure_ratios, self.costs.failure_to_planned)))
+
+    @property
+    def families(self) -> tuple[PolicyId, ...]:
+        """The policies whose parameter is tuned."""
+        return (*(PolicyId("threshold", n) for n in self.config.predictors), FIXED_INTERVAL)
+
+
 def run_compare(
     config: CompareConfig,
     atlas: Atlas,
     out_dir: str | Path,
     seed: int = 0,
-    progress: Callable[[str, int], Callable[[int], object]] | None = None,
+    progress: Progress | None = None,
     fitted: Mapping[str, Predictor] | None = None,
     hyperparams: Mapping[str, dict[str, Any]] | None = None,
-) -> dict[str, Any]:
-    """Fit, tune, train and evaluate; returns the content of ``costs.json``.
+) -> CompareResult:
+    """Fit, tune, train and evaluate (:meth:`CompareResult.to_dict` is ``costs.json``).
 
     Args:
         config: What to run.
@@ -169,143 +217,145 @@ def run_compare(
         fitted: Already fitted predictors by name (fitted here when missing).
         hyperparams: Agent hyperparameters by predictor (default: the predictor's file).
     """
-    from agents.train import TrainedAgent, agent_env, train_agent
-
     t_start = time.perf_counter()
     names = tuple(dict.fromkeys((*config.predictors, "oracle")))
-    timing: dict[str, Any] = {}
     have = dict(fitted or {})
     todo = [n for n in names if n not in have]
-    new, timing["fit_s"] = fit_predictors(
-        todo, atlas, seed, config.n_train_runs, config.k_mean, config.k_std
-    )
+    new, fit_s = fit_predictors(todo, atlas, seed, config.n_train_runs, config.wear)
     have.update(new)
-    base = BrakeWearEnv(atlas=atlas, cache_pads=64, **config.env_kwargs)
-    wrapped = {n: RULObservation(base, have[n], precompute=True) for n in names}
-    interval = config.decision_interval
-    tune_seeds = [seed * 10_000 + 1_000 + i for i in range(config.tune_seeds)]
-    eval_seeds = [seed * 10_000 + 5_000 + i for i in range(config.eval_seeds)]
+    bed = _Testbed.make(config, atlas, {n: have[n] for n in names}, seed)
 
-    # ---- tuning: every candidate on the tuning seeds, once for all cost ratios
-    candidates: dict[str, Entry] = {}
-    for n in config.predictors:
-        for h in config.thresholds:
-            candidates[f"{n}/threshold/{h * interval:g}"] = (RULThreshold(h * interval), wrapped[n])
-    for age in config.fixed_intervals:
-        candidates[f"fixed-interval/{age}"] = (FixedInterval(age), base)
+    candidates = _candidates(bed)
+    tuned, tune_s = _timed(candidates, bed.tune_seeds, progress, "tune")
+    best = {r: _best(bed, tuned, r) for r in bed.ratios}
+    agents, train_s = _train_agents(config, have, atlas, Path(out_dir), seed, hyperparams)
+    entries = _evaluation_entries(bed, candidates, best, agents)
+    reports, evaluate_s = _timed(entries, bed.eval_seeds, progress, "evaluate")
+    reports = with_oracle_ratios(reports, reports[ORACLE])
+
+    default = best[bed.costs.failure_to_planned]
+    unparametrised = (*agents, REPLACE_ON_FAILURE)
+    headline = {fam: replace(reports[c], name=fam.label) for fam, c in default.items()}
+    headline.update((p, reports[p]) for p in (*unparametrised, ORACLE))
+    parameters = {fam: c.parameter for fam, c in default.items() if c.parameter is not None}
+    return CompareResult(
+        seed=seed,
+        config=config,
+        failure_to_planned=bed.costs.failure_to_planned,
+        tune_seeds=bed.tune_seeds,
+        eval_seeds=bed.eval_seeds,
+        policies=headline,
+        parameters=parameters,
+        sensitivity={r: _ratio_result(bed, r, best[r], unparametrised, reports) for r in best},
+        tuning=tuned,
+        timing=Timing(fit_s, tune_s, train_s, evaluate_s, time.perf_counter() - t_start),
+    )
+
+
+def _timed(
+    entries: Mapping[PolicyId, Entry], seeds: Sequence[int], progress: Progress | None, label: str
+) -> tuple[dict[PolicyId, CostReport], float]:
+    """:func:`evaluate_seed_major` with a progress bar named ``label``, and its seconds."""
     t0 = time.perf_counter()
-    bar = progress("tune", len(candidates) * len(tune_seeds)) if progress else None
-    tuned = evaluate_seed_major(candidates, tune_seeds, bar)
-    timing["tune_s"] = time.perf_counter() - t0
-    ratios = tuple(dict.fromkeys((*config.failure_ratios, base.config.costs.failure_to_planned)))
-    best: dict[float, dict[str, str]] = {}  # ratio -> policy family -> candidate key
-    for r in ratios:
-        w = _weights(base.config.costs, r)
-        families = {f"{n}/threshold": f"{n}/threshold/" for n in config.predictors}
-        families["fixed-interval"] = "fixed-interval/"
-        best[r] = {
-            fam: min(
-                (k for k in tuned if k.startswith(prefix)), key=lambda k: tuned[k].cost_with(w)
-            )
-            for fam, prefix in families.items()
-        }
+    bar = progress(label, len(entries) * len(seeds)) if progress else None
+    return evaluate_seed_major(entries, seeds, bar), time.perf_counter() - t0
 
-    # ---- agents
-    agents: dict[str, TrainedAgent] = {}
-    timing["train_s"] = {}
+
+def _candidates(bed: _Testbed) -> dict[PolicyId, Entry]:
+    """Every threshold of every predictor and every fixed interval, to be tuned."""
+    interval = bed.config.decision_interval
+    out: dict[PolicyId, Entry] = {}
+    for n in bed.config.predictors:
+        for h in bed.config.thresholds:
+            threshold = float(h * interval)
+            out[PolicyId("threshold", n, parameter=threshold)] = (
+                RULThreshold(threshold),
+                bed.wrapped[n],
+            )
+    for age in bed.config.fixed_intervals:
+        out[replace(FIXED_INTERVAL, parameter=float(age))] = (FixedInterval(age), bed.base)
+    return out
+
+
+def _best(
+    bed: _Testbed, tuned: Mapping[PolicyId, CostReport], ratio: float
+) -> dict[PolicyId, PolicyId]:
+    """Each family's cheapest candidate on the tuning episodes at cost ratio ``ratio``
+    (the first of equals, in candidate order)."""
+    w = _weights(bed.costs, ratio)
+    return {
+        fam: min((c for c in tuned if c.family == fam), key=lambda c: tuned[c].cost_with(w))
+        for fam in bed.families
+    }
+
+
+def _train_agents(
+    config: CompareConfig,
+    predictors: Mapping[str, Predictor],
+    atlas: Atlas,
+    out_dir: Path,
+    seed: int,
+    hyperparams: Mapping[str, dict[str, Any]] | None,
+) -> tuple[dict[PolicyId, Entry], dict[str, float]]:
+    """An agent per agent predictor, trained into ``out_dir/agents/<predictor>``, with the
+    env it acts on; and the seconds each took."""
+    from agents.train import TrainedAgent, agent_env, train_agent
+
+    agents: dict[PolicyId, Entry] = {}
+    seconds: dict[str, float] = {}
     for n in config.agent_predictors:
         res = train_agent(
-            have[n],
+            predictors[n],
             atlas,
-            Path(out_dir) / "agents" / n,
+            out_dir / "agents" / n,
             algo=config.algo,
             timesteps=config.timesteps,
             seed=seed,
             env_kwargs=config.env_kwargs,
             hyperparams=hyperparams.get(n) if hyperparams else None,
         )
-        timing["train_s"][n] = res.seconds
-        agents[n] = TrainedAgent(res.out_dir)
+        seconds[n] = res.seconds
+        env = agent_env(predictors[n], atlas, {**config.env_kwargs, "cache_pads": 64})
+        agents[PolicyId("agent", n, algo=config.algo)] = (TrainedAgent(res.out_dir), env)
+    return agents, seconds
 
-    # ---- evaluation on held-out seeds
-    default_ratio = base.config.costs.failure_to_planned
-    entries: dict[str, Entry] = {}
-    params: dict[str, float] = {}
-    for r in ratios:
-        for fam, key in best[r].items():
-            name = fam if r == default_ratio else f"{fam}@{r:g}"
-            entries[name] = candidates[key]
-            params[name] = float(key.rsplit("/", 1)[1])
-    for n, agent in agents.items():
-        env = agent_env(have[n], atlas, {**config.env_kwargs, "cache_pads": 64})
-        entries[f"{n}/{config.algo}"] = (agent, env)
-    entries["replace-on-failure"] = (ReplaceOnFailure(), base)
-    entries["oracle"] = (RULThreshold(interval), wrapped["oracle"])
-    t0 = time.perf_counter()
-    bar = progress("evaluate", len(entries) * len(eval_seeds)) if progress else None
-    reports = evaluate_seed_major(entries, eval_seeds, bar)
-    timing["evaluate_s"] = time.perf_counter() - t0
-    reports = with_oracle_ratios(reports, reports["oracle"])
 
-    # ---- cost sensitivity: each family's policy tuned for the ratio (agents as trained)
-    sensitivity = {}
-    for r in ratios:
-        w = _weights(base.config.costs, r)
-        oracle_cost = reports["oracle"].cost_with(w)
-        rows = {}
-        for fam in best[r]:
-            name = fam if r == default_ratio else f"{fam}@{r:g}"
-            rows[fam] = _sensitivity_row(reports[name], w, reports["oracle"], params[name])
-        for n in agents:
-            rows[f"{n}/{config.algo}"] = _sensitivity_row(
-                reports[f"{n}/{config.algo}"], w, reports["oracle"], None
-            )
-        rows["replace-on-failure"] = _sensitivity_row(
-            reports["replace-on-failure"], w, reports["oracle"], None
-        )
-        ranking = sorted(
-            config.predictors,
-            key=lambda n: min(
-                rows[k]["cost_per_1000_events"] for k in rows if k.startswith(f"{n}/")
-            ),
-        )
-        sensitivity[f"{r:g}"] = {
-            "failure_to_planned": r,
-            "oracle_cost_per_1000_events": oracle_cost,
-            "policies": rows,
-            "predictor_ranking": ranking,
-        }
-    timing["total_s"] = time.perf_counter() - t_start
-    headline = {k: v for k, v in reports.items() if "@" not in k}
-    return {
-        "seed": seed,
-        "config": asdict(config),
-        "failure_to_planned": default_ratio,
-        "tune_seeds": tune_seeds,
-        "eval_seeds": eval_seeds,
-        "tuned_parameters": {k: v for k, v in params.items() if "@" not in k},
-        "policies": {k: {**v.to_dict(), "parameter": params.get(k)} for k, v in headline.items()},
-        "sensitivity": sensitivity,
-        "tuning": {k: v.cost_per_1000_events for k, v in tuned.items()},
-        "timing_s": timing,
-        "_reports": headline,  # for the plots; dropped before writing JSON
-    }
+def _evaluation_entries(
+    bed: _Testbed,
+    candidates: Mapping[PolicyId, Entry],
+    best: Mapping[float, Mapping[PolicyId, PolicyId]],
+    agents: Mapping[PolicyId, Entry],
+) -> dict[PolicyId, Entry]:
+    """What runs on the held-out episodes: each candidate that is best at some cost ratio
+    (once, however many ratios it wins), the agents, replace-on-failure and the oracle."""
+    entries = {c: candidates[c] for winners in best.values() for c in winners.values()}
+    entries.update(agents)
+    entries[REPLACE_ON_FAILURE] = (ReplaceOnFailure(), bed.base)
+    entries[ORACLE] = (RULThreshold(bed.config.decision_interval), bed.wrapped["oracle"])
+    return entries
+
+
+def _ratio_result(
+    bed: _Testbed,
+    ratio: float,
+    best: Mapping[PolicyId, PolicyId],
+    unparametrised: Sequence[PolicyId],
+    reports: Mapping[PolicyId, CostReport],
+) -> RatioResult:
+    """Each family's policy tuned for ``ratio``, the agents (as trained) and
+    replace-on-failure, priced with that ratio's weights; and the predictors' ranking."""
+    w = _weights(bed.costs, ratio)
+    oracle = reports[ORACLE]
+    rows = {fam: PolicyCost.of(reports[c], w, oracle, c.parameter) for fam, c in best.items()}
+    rows.update((p, PolicyCost.of(reports[p], w, oracle, None)) for p in unparametrised)
+    ranking = sorted(
+        bed.config.predictors,
+        key=lambda n: min(r.cost_per_1000_events for p, r in rows.items() if p.predictor == n),
+    )
+    return RatioResult(ratio, oracle.cost_with(w), rows, tuple(ranking))
 
 
 def _weights(default: CostWeights, ratio: float) -> CostWeights:
     if np.isclose(ratio, default.failure_to_planned):
         return default
     return CostWeights.with_ratio(ratio, default.planned_replacement)
-
-
-def _sensitivity_row(
-    r: CostReport, w: CostWeights, oracle: CostReport, parameter: float | None
-) -> dict[str, Any]:
-    per_seed = ratio_per_seed(r.episode_costs_with(w), oracle.episode_costs_with(w))
-    return {
-        "cost_per_1000_events": r.cost_with(w),
-        "ratio_to_oracle": r.cost_with(w) / oracle.cost_with(w),
-        "ratio_to_oracle_ci95": t_interval(per_seed.tolist()),
-        "failures_per_100_pads": r.failures_per_100_pads,
-        "parameter": parameter,
-    }

@@ -8,9 +8,9 @@ policy meets the same pads under the same operating conditions.
 from __future__ import annotations
 
 import time
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Hashable, Mapping, Sequence
 from dataclasses import asdict, dataclass, field, replace
-from typing import Any
+from typing import Any, TypeVar
 
 import gymnasium as gym
 import numpy as np
@@ -18,10 +18,12 @@ from numpy.typing import NDArray
 
 from agents.policies import Policy, RULThreshold
 from brake_env.env.config import CostWeights
+from brake_env.env.pads import RetiredPad
 from brake_env.env.wrappers import RULObservation
 from brake_env.prognostics.protocol import Oracle
 
 F64 = NDArray[np.float64]
+K = TypeVar("K", bound=Hashable)  # what a set of reports is keyed by: a name or a PolicyId
 
 
 @dataclass(frozen=True)
@@ -133,7 +135,8 @@ def run_episodes(
         raise ValueError("run_episodes: give at least one seed")
     t0 = time.perf_counter()
     cost = 0.0
-    per_episode, retired, ep_fail, ep_plan, ep_events = [], [], [], [], []
+    per_episode, ep_fail, ep_plan, ep_events = [], [], [], []
+    retired: list[RetiredPad] = []
     for seed in seeds:
         obs, info = env.reset(seed=int(seed))
         c, n, f, p = 0.0, len(info["events"]), 0, 0
@@ -157,7 +160,7 @@ def run_episodes(
         tuple(int(s) for s in seeds),
         cost,
         tuple(per_episode),
-        [(int(a), int(b), str(c)) for a, b, c in retired],
+        retired,
         tuple(ep_fail),
         tuple(ep_plan),
         tuple(ep_events),
@@ -170,15 +173,15 @@ def _report(
     seeds: tuple[int, ...],
     cost: float,
     per_episode: tuple[float, ...],
-    retired: Sequence[tuple[int, int, str]],
+    retired: Sequence[RetiredPad],
     ep_fail: tuple[int, ...],
     ep_plan: tuple[int, ...],
     ep_events: tuple[int, ...],
     seconds: float,
 ) -> CostReport:
-    left = np.array([r[0] for r in retired], dtype=np.int64)
-    life = np.array([r[1] for r in retired], dtype=np.int64)
-    label = np.array([r[2] for r in retired], dtype=object)
+    left = np.array([r.life_left for r in retired], dtype=np.int64)
+    life = np.array([r.life for r in retired], dtype=np.int64)
+    label = np.array([r.regime for r in retired], dtype=object)
     failed = left == 0
     masks = {r: label == r for r in ("id", "ood-slow", "ood-fast")}
     masks["ood"] = masks["ood-slow"] | masks["ood-fast"]
@@ -213,11 +216,9 @@ def merge_reports(reports: Sequence[CostReport]) -> CostReport:
     if not reports:
         raise ValueError("merge_reports: nothing to merge")
     retired = [
-        (a, b, c)
+        RetiredPad(*pad)
         for r in reports
-        for a, b, c in zip(
-            r.retired_rul_events, r.retired_life_events, r.retired_regimes, strict=True
-        )
+        for pad in zip(r.retired_rul_events, r.retired_life_events, r.retired_regimes, strict=True)
     ]
     return _report(
         reports[0].name,
@@ -268,9 +269,7 @@ def compare_policies(
     return with_oracle_ratios(reports, reports["oracle"])
 
 
-def with_oracle_ratios(
-    reports: Mapping[str, CostReport], oracle: CostReport
-) -> dict[str, CostReport]:
+def with_oracle_ratios(reports: Mapping[K, CostReport], oracle: CostReport) -> dict[K, CostReport]:
     """Each report with its cost ratio to ``oracle`` (which must have run the same seeds)."""
     base = np.asarray(oracle.episode_cost_per_1000_events)
     out = {}

@@ -4,18 +4,22 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 from matplotlib.figure import Figure
 
 from agents.evaluation import CostReport
+from agents.policies import PolicyId
+from agents.results import RatioResult
+
+# Blue: an RUL threshold; orange: a trained agent; grey: the rest.
+_COLORS = {"threshold": "#2b8cbe", "agent": "#e6550d"}
 
 
-def plot_cost_ratios(reports: Mapping[str, CostReport], path: str | Path) -> Path:
+def plot_cost_ratios(reports: Mapping[PolicyId, CostReport], path: str | Path) -> Path:
     """Cost ratio to the oracle per policy, with 95% intervals over seeds, cheapest first."""
     items = sorted(reports.items(), key=lambda kv: kv[1].cost)
-    names = [k for k, _ in items]
+    names = [k.label for k, _ in items]
     ratio = np.array([r.ratio_to_oracle or np.nan for _, r in items])
     lo, hi = [], []
     for (_, r), x in zip(items, ratio, strict=True):
@@ -26,10 +30,7 @@ def plot_cost_ratios(reports: Mapping[str, CostReport], path: str | Path) -> Pat
         hi.append((per.mean() + half) - x if per.size > 1 else 0.0)
     fig = Figure(figsize=(8, 0.45 * len(names) + 1.5), layout="constrained")
     ax = fig.add_subplot()
-    colors = [
-        "#2b8cbe" if "/threshold" in n else "#e6550d" if "/ppo" in n or "/dqn" in n else "#636363"
-        for n in names
-    ]
+    colors = [_COLORS.get(k.kind, "#636363") for k, _ in items]
     y = np.arange(len(names))
     ax.barh(y, ratio, xerr=[np.maximum(lo, 0), np.maximum(hi, 0)], color=colors, capsize=3)
     ax.axvline(1.0, color="k", lw=0.8)
@@ -42,7 +43,7 @@ def plot_cost_ratios(reports: Mapping[str, CostReport], path: str | Path) -> Pat
 
 
 def plot_replacement_timing(
-    reports: Mapping[str, CostReport], path: str | Path, decision_interval: int
+    reports: Mapping[PolicyId, CostReport], path: str | Path, decision_interval: int
 ) -> Path:
     """True RUL left when each pad was taken off, per policy (failures at 0, in red)."""
     items = sorted(reports.items(), key=lambda kv: kv[1].cost)
@@ -57,7 +58,7 @@ def plot_replacement_timing(
         ax.scatter(np.full((~ok).sum(), 1.0), i + jitter[~ok], s=14, marker="x", color="#de2d26")
     ax.axvline(decision_interval, color="k", lw=0.8, ls="--", label="one decision interval")
     ax.set_xscale("log")
-    ax.set_yticks(range(len(items)), [k for k, _ in items])
+    ax.set_yticks(range(len(items)), [k.label for k, _ in items])
     ax.invert_yaxis()
     ax.set_xlabel("true RUL left at replacement [events]  (x at 1: brake failure)")
     ax.legend(loc="lower right")
@@ -65,20 +66,18 @@ def plot_replacement_timing(
     return _save(fig, path)
 
 
-def plot_sensitivity(sensitivity: Mapping[str, Any], path: str | Path) -> Path:
+def plot_sensitivity(sensitivity: Mapping[float, RatioResult], path: str | Path) -> Path:
     """Cost ratio to the oracle of each predictor's best policy, per failure cost ratio."""
-    ratios = sorted(sensitivity, key=float)
-    preds = sorted(
-        {k.split("/")[0] for v in sensitivity.values() for k in v["policies"] if "/" in k}
-    )
+    ratios = sorted(sensitivity)
+    preds = sorted({k.predictor for v in sensitivity.values() for k in v.policies if k.predictor})
     fig = Figure(figsize=(7, 4), layout="constrained")
     ax = fig.add_subplot()
     for p in preds:
         ys = []
         for r in ratios:
-            rows = sensitivity[r]["policies"]
-            ys.append(min(v["ratio_to_oracle"] for k, v in rows.items() if k.startswith(f"{p}/")))
-        ax.plot([float(r) for r in ratios], ys, marker="o", label=p)
+            rows = sensitivity[r].policies
+            ys.append(min(v.ratio_to_oracle for k, v in rows.items() if k.predictor == p))
+        ax.plot(ratios, ys, marker="o", label=p)
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_xlabel("failure cost / planned replacement cost")

@@ -1,9 +1,11 @@
 """Rule-based replacement policies with Stable-Baselines3's ``predict`` signature, so a rule
-and a trained agent are evaluated by the same function."""
+and a trained agent are evaluated by the same function; and :class:`PolicyId`, the name of a
+policy in the cost comparison."""
 
 from __future__ import annotations
 
-from typing import Any, Protocol, runtime_checkable
+from dataclasses import dataclass, replace
+from typing import Any, Literal, Protocol, get_args, runtime_checkable
 
 import numpy as np
 from numpy.typing import NDArray
@@ -105,3 +107,65 @@ class RULThreshold(_Rule):
 
     def __repr__(self) -> str:
         return f"RULThreshold({self.threshold_events:g})"
+
+
+PolicyKind = Literal["threshold", "agent", "fixed-interval", "replace-on-failure", "oracle"]
+
+
+@dataclass(frozen=True)
+class PolicyId:
+    """Which policy a row of the cost comparison is (README, "Maintenance cost by predictor");
+    its :attr:`label` names it in tables, figures and ``costs.json``.
+
+    Attributes:
+        kind: ``threshold`` (:class:`RULThreshold` on a predictor's estimates), ``agent``
+            (an SB3 agent trained on them), ``fixed-interval`` (:class:`FixedInterval`),
+            ``replace-on-failure`` or ``oracle`` (the true RUL, one decision interval).
+        predictor: Whose RUL estimates a ``threshold`` or ``agent`` policy acts on.
+        algo: The agent's algorithm (``ppo`` or ``dqn``).
+        parameter: A tuning candidate's threshold or replacement age [events]; None for a
+            policy family (its parameter tuned) and for policies without one.
+    """
+
+    kind: PolicyKind
+    predictor: str | None = None
+    algo: str | None = None
+    parameter: float | None = None
+
+    def __post_init__(self) -> None:
+        kinds = get_args(PolicyKind)
+        if self.kind not in kinds:
+            raise ValueError(f"PolicyId: kind must be one of {kinds}, got {self.kind!r}")
+        if (self.predictor is not None) != (self.kind in ("threshold", "agent")):
+            raise ValueError(
+                "PolicyId: threshold and agent policies, and only they, have a predictor;"
+                f" got {self.predictor!r} for {self.kind}"
+            )
+        if (self.algo is not None) != (self.kind == "agent"):
+            raise ValueError(
+                f"PolicyId: agents, and only they, have an algo; got {self.algo!r} for {self.kind}"
+            )
+        if self.parameter is not None and self.kind not in ("threshold", "fixed-interval"):
+            raise ValueError(f"PolicyId: a {self.kind} policy has no parameter")
+
+    @property
+    def family(self) -> PolicyId:
+        """The policy with its parameter left to tuning."""
+        return replace(self, parameter=None)
+
+    @property
+    def label(self) -> str:
+        """``<predictor>/threshold``, ``<predictor>/<algo>``, ``fixed-interval``, ... and a
+        candidate's parameter after a slash: ``twin/threshold/1000``."""
+        head = {
+            "threshold": f"{self.predictor}/threshold",
+            "agent": f"{self.predictor}/{self.algo}",
+        }
+        name = head.get(self.kind, self.kind)
+        if self.parameter is None:
+            return name
+        p = self.parameter
+        return f"{name}/{int(p) if float(p).is_integer() else format(p, 'g')}"
+
+    def __str__(self) -> str:
+        return self.label

@@ -3,7 +3,8 @@ predictor's RUL estimates; save it with its observation normalisation and load i
 
 The agent's env is ``AgentFeatures(RULObservation(BrakeWear-v0, predictor, precompute))``
 in SB3 vector envs under ``VecNormalize``. Hyperparameters come from
-``agents/hyperparams/<predictor>.toml`` (RL Zoo style, one file per predictor).
+``agents/hyperparams/<predictor>.toml`` (:mod:`agents.hyperparameters`). torch and SB3 are
+imported by the functions that use them, so importing this module stays light.
 """
 
 from __future__ import annotations
@@ -11,51 +12,30 @@ from __future__ import annotations
 import copy
 import json
 import time
-import tomllib
 from collections.abc import Callable
 from dataclasses import asdict, dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 from weakref import WeakKeyDictionary
 
 import gymnasium as gym
 import numpy as np
-import torch
 from numpy.typing import NDArray
 
 from agents.features import AgentFeatures
+from agents.hyperparameters import ALGOS, VecSettings, check_algo, load_hyperparams
 from brake_env.env.brake_wear import BrakeWearEnv
 from brake_env.env.pads import PadLife
 from brake_env.env.wrappers import RULObservation
 from brake_env.model.atlas import Atlas
 from brake_env.prognostics.protocol import RULEstimate, RULPredictor
 
-ALGOS = ("ppo", "dqn")
-HYPERPARAMS_DIR = Path(__file__).parent / "hyperparams"
-# Keys of a hyperparameter table that configure the vector env, not the algorithm.
-_ENV_KEYS = (
-    "n_envs",
-    "norm_obs",
-    "norm_reward",
-    "net_arch",
-    "initial_replace_prob",
-    "torch_threads",
-    "pad_pool",
-)
+if TYPE_CHECKING:
+    from stable_baselines3 import DQN, PPO
+    from stable_baselines3.common.callbacks import CallbackList
+    from stable_baselines3.common.vec_env import VecNormalize
 
-
-def load_hyperparams(predictor: str, algo: str, path: str | Path | None = None) -> dict[str, Any]:
-    """The ``[algo]`` table of ``path`` (default ``agents/hyperparams/<predictor>.toml``)."""
-    if algo not in ALGOS:
-        raise ValueError(f"unknown algorithm {algo!r}; valid are {list(ALGOS)}")
-    file = Path(path) if path else HYPERPARAMS_DIR / f"{predictor}.toml"
-    if not file.exists():
-        raise FileNotFoundError(f"hyperparameter file {file} does not exist")
-    with open(file, "rb") as f:
-        tables = tomllib.load(f)
-    if algo not in tables:
-        raise ValueError(f"{file}: no [{algo}] table")
-    return dict(tables[algo])
+__all__ = ["ALGOS", "TrainResult", "TrainedAgent", "agent_env", "load_hyperparams", "train_agent"]
 
 
 def agent_env(
@@ -126,30 +106,54 @@ def train_agent(
         progress_bar: Show SB3's progress bar.
         verbose: SB3 verbosity.
     """
-    from stable_baselines3 import DQN, PPO
-    from stable_baselines3.common.callbacks import CallbackList, CheckpointCallback, EvalCallback
-    from stable_baselines3.common.monitor import Monitor
-    from stable_baselines3.common.running_mean_std import RunningMeanStd
-    from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
+    import torch
 
+    check_algo(algo)
     if timesteps < 1:
         raise ValueError(f"timesteps must be >= 1, got {timesteps}")
     hp = dict(hyperparams if hyperparams is not None else load_hyperparams(predictor.name, algo))
+    settings, algo_kwargs = VecSettings.split(hp)
     # A tiny MLP gains nothing from threads; on 2 cores they only contend with the envs.
-    torch.set_num_threads(int(hp.get("torch_threads", 1)))
-    n_envs = int(hp.get("n_envs", 1))
-    norm_obs, norm_reward = bool(hp.get("norm_obs", True)), bool(hp.get("norm_reward", True))
-    policy_kwargs = {"net_arch": list(hp.get("net_arch", [64, 64]))}
-    algo_kwargs = {k: v for k, v in hp.items() if k not in _ENV_KEYS}
+    torch.set_num_threads(settings.torch_threads)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
+    gamma = float(algo_kwargs.get("gamma", 0.99))
+    venv, eval_venv = _vec_envs(predictor, atlas, env_kwargs or {}, settings, seed, gamma)
+    every = max(timesteps // (settings.n_envs * max(n_evals, 1)), 1)
+    callbacks = _callbacks(eval_venv, out, every, eval_episodes)
+    model = _model(algo, venv, seed, settings, algo_kwargs, out, verbose)
+    t0 = time.perf_counter()
+    model.learn(total_timesteps=timesteps, callback=callbacks, progress_bar=progress_bar)
+    seconds = time.perf_counter() - t0
+    result = TrainResult(str(out), predictor.name, algo, timesteps, seed, seconds, hp)
+    _save(model, venv, settings, out)
+    (out / "train.json").write_text(
+        json.dumps({**asdict(result), "env_kwargs": env_kwargs or {}}, indent=2) + "\n"
+    )
+    venv.close()
+    eval_venv.close()
+    return result
 
-    # Training pads come from a fixed pool (hyperparameter pad_pool; 0 = fresh pads): each
-    # is simulated and run through the predictor once, shared by all training envs, which
-    # makes a slow predictor (the twin: ~4e4 events/s, ~3 s a pad) affordable to train on.
-    # Evaluation always meets fresh pads.
-    pool = int(hp.get("pad_pool", 0))
-    train_kwargs = {**(env_kwargs or {}), "pad_pool": pool, "pad_pool_seed": seed}
+
+def _vec_envs(
+    predictor: RULPredictor,
+    atlas: Atlas,
+    env_kwargs: dict[str, Any],
+    settings: VecSettings,
+    seed: int,
+    gamma: float,
+) -> tuple[VecNormalize, VecNormalize]:
+    """The training vector env and the evaluation env, both under VecNormalize.
+
+    Training pads come from a fixed pool (``pad_pool``; 0 = fresh pads): each is simulated
+    and run through the predictor once, shared by all training envs, which makes a slow
+    predictor (the twin: ~4e4 events/s, ~3 s a pad) affordable to train on. Evaluation
+    always meets fresh pads.
+    """
+    from stable_baselines3.common.monitor import Monitor
+    from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
+
+    train_kwargs = {**env_kwargs, "pad_pool": settings.pad_pool, "pad_pool_seed": seed}
     shared: WeakKeyDictionary[PadLife, RULEstimate] = WeakKeyDictionary()
 
     def maker(rank: int) -> Callable[[], gym.Env[Any, Any]]:
@@ -158,20 +162,25 @@ def train_agent(
     def eval_maker() -> gym.Env[Any, Any]:
         return Monitor(agent_env(predictor, atlas, env_kwargs))
 
-    gamma = float(algo_kwargs.get("gamma", 0.99))
     venv = VecNormalize(
-        DummyVecEnv([maker(i) for i in range(n_envs)]),
-        norm_obs=norm_obs,
-        norm_reward=norm_reward,
+        DummyVecEnv([maker(i) for i in range(settings.n_envs)]),
+        norm_obs=settings.norm_obs,
+        norm_reward=settings.norm_reward,
         gamma=gamma,
     )
     venv.seed(seed)
     eval_venv = VecNormalize(
-        DummyVecEnv([eval_maker]), norm_obs=norm_obs, norm_reward=False, training=False
+        DummyVecEnv([eval_maker]), norm_obs=settings.norm_obs, norm_reward=False, training=False
     )
     eval_venv.seed(seed + 10_000)
-    every = max(timesteps // (n_envs * max(n_evals, 1)), 1)
-    callbacks = CallbackList(
+    return venv, eval_venv
+
+
+def _callbacks(eval_venv: VecNormalize, out: Path, every: int, eval_episodes: int) -> CallbackList:
+    """Periodic evaluation (``out/eval``) and checkpoints (``out/checkpoints``)."""
+    from stable_baselines3.common.callbacks import CallbackList, CheckpointCallback, EvalCallback
+
+    return CallbackList(
         [
             EvalCallback(
                 eval_venv,
@@ -187,41 +196,53 @@ def train_agent(
             ),
         ]
     )
+
+
+def _model(
+    algo: str,
+    venv: VecNormalize,
+    seed: int,
+    settings: VecSettings,
+    algo_kwargs: dict[str, Any],
+    out: Path,
+    verbose: int,
+) -> PPO | DQN:
+    """The untrained SB3 model, logging to ``out/tb``."""
+    from stable_baselines3 import DQN, PPO
+
     cls = {"ppo": PPO, "dqn": DQN}[algo]
     model = cls(
         "MlpPolicy",
         venv,
         seed=seed,
         device="cpu",
-        policy_kwargs=policy_kwargs,
+        policy_kwargs={"net_arch": list(settings.net_arch)},
         tensorboard_log=str(out / "tb"),
         verbose=verbose,
         **algo_kwargs,
     )
-    if algo == "ppo" and "initial_replace_prob" in hp:
-        _bias_first_actions(model, float(hp["initial_replace_prob"]))
-    t0 = time.perf_counter()
-    model.learn(total_timesteps=timesteps, callback=callbacks, progress_bar=progress_bar)
-    seconds = time.perf_counter() - t0
+    if algo == "ppo" and settings.initial_replace_prob is not None:
+        _bias_first_actions(model, settings.initial_replace_prob)
+    return model
+
+
+def _save(model: PPO | DQN, venv: VecNormalize, settings: VecSettings, out: Path) -> None:
+    """The model, SB3's own VecNormalize file (to resume training) and the observation
+    statistics evaluation needs, without pickle."""
+    from stable_baselines3.common.running_mean_std import RunningMeanStd
+
     model.save(out / "model.zip")
-    venv.save(str(out / "vecnormalize.pkl"))  # SB3's own format, to resume training
+    venv.save(str(out / "vecnormalize.pkl"))
     rms = venv.obs_rms
     assert isinstance(rms, RunningMeanStd)  # a Box observation, not a Dict
-    np.savez(  # what evaluation needs, without pickle
+    np.savez(
         out / "obs_normalization.npz",
         mean=rms.mean,
         var=rms.var,
         clip_obs=venv.clip_obs,
         epsilon=venv.epsilon,
-        enabled=norm_obs,
+        enabled=settings.norm_obs,
     )
-    result = TrainResult(str(out), predictor.name, algo, timesteps, seed, seconds, hp)
-    (out / "train.json").write_text(
-        json.dumps({**asdict(result), "env_kwargs": env_kwargs or {}}, indent=2) + "\n"
-    )
-    venv.close()
-    eval_venv.close()
-    return result
 
 
 def _bias_first_actions(model: Any, replace_prob: float) -> None:
@@ -233,6 +254,8 @@ def _bias_first_actions(model: Any, replace_prob: float) -> None:
     """
     if not 0.0 < replace_prob < 1.0:
         raise ValueError(f"initial_replace_prob must be in (0, 1), got {replace_prob}")
+    import torch
+
     logit = float(np.log(replace_prob / (1.0 - replace_prob)))
     with torch.no_grad():
         model.policy.action_net.weight.mul_(0.01)

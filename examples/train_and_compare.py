@@ -17,6 +17,7 @@ from typing import Any
 from agents.cli import compare_and_report
 from agents.compare import CompareConfig
 from agents.train import load_hyperparams
+from brake_env.model.regime import WearRegime
 
 
 def main(
@@ -37,8 +38,7 @@ def main(
         eval_seeds=4,
         thresholds=(0, 1, 2, 4, 8, 16, 32, 64),
         fixed_intervals=tuple(int(f * 2e-6 / k_mean * 1.18e5) for f in (0.4, 0.5, 0.6, 0.7, 0.8)),
-        k_mean=k_mean,
-        k_std=k_mean / 10,
+        wear=WearRegime(k_mean, k_mean / 10),
     )
     # Train on a small pool of pads: each is run through the twin once (~3 s a pad).
     hp = {agent: {**load_hyperparams(agent, "ppo"), "pad_pool": pad_pool}}

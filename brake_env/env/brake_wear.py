@@ -106,10 +106,10 @@ class BrakeWearEnv(gym.Env[NDArray[np.float32], np.int64]):
     ``events`` (every event of the step as arrays named like the event-log columns:
     ``event`` is the index since installation; ground truth ``volume_frac``, ``wear_coeff``
     and ``rul_events`` included), ``costs`` (cost terms by name), ``replaced``,
-    ``failures``, ``pads_retired``, ``retired`` (for each pad taken off in the step: events
-    of life it had left, 0 for a failure, its life and its regime) and ``truth`` (true
-    volume, K, RUL, life and regime of the installed pad; for analysis only, never for a
-    policy).
+    ``failures``, ``pads_retired``, ``retired`` (a :class:`~brake_env.env.pads.RetiredPad`
+    for each pad taken off in the step, in order: ``life_left``, the events of life it had
+    left, 0 for a failure; its ``life`` and its ``regime``) and ``truth`` (true volume, K,
+    RUL, life and regime of the installed pad; for analysis only, never for a policy).
 
     ## Arguments
 

@@ -27,6 +27,26 @@ from brake_env.prognostics.protocol import MEASURED, TRUTH, EventBatch
 COST_TERMS = ("planned_replacement", "corrective_replacement", "downtime", "damage", "revenue")
 
 
+@dataclass(frozen=True)
+class RetiredPad:
+    """A pad taken off in a step (an entry of ``info["retired"]``).
+
+    Attributes:
+        life_left: Events of life it still had [events]; 0 for a pad that failed.
+        life: Events of its whole life [events].
+        regime: Its wear regime, ``id``, ``ood-slow`` or ``ood-fast``.
+    """
+
+    life_left: int
+    life: int
+    regime: str
+
+    @property
+    def failed(self) -> bool:
+        """It was taken off by a brake failure, not by a planned replacement."""
+        return self.life_left == 0
+
+
 @dataclass(frozen=True, eq=False)
 class PadLife:
     """A pad simulated from installation to failure.
@@ -172,12 +192,16 @@ class PadService:
             self._cache.move_to_end((k, entropy))
         self.pad, self.pos = pad, 0
 
+    def _retire(self) -> RetiredPad:
+        """The installed pad's record as it is taken off, before the next is installed."""
+        assert self.pad is not None
+        return RetiredPad(self.pad.n_events - self.pos, self.pad.n_events, self.pad.label)
+
     def _serve(self, n: int, replaced: bool) -> dict[str, Any]:
         costs = dict.fromkeys(COST_TERMS, 0.0)
-        retired = []  # (events of life left, life, regime) of each pad taken off in the step
+        retired: list[RetiredPad] = []  # each pad taken off in the step, in order
         if replaced:
-            assert self.pad is not None
-            retired.append((self.pad.n_events - self.pos, self.pad.n_events, self.pad.label))
+            retired.append(self._retire())
             costs.update(self._planned)
             self._install()
         segments = []  # (pad, first event, last event + 1) in service order
@@ -187,7 +211,7 @@ class PadService:
             take = min(left, self.pad.n_events - self.pos)
             if take == 0:  # the next event needs a pad that has no life left: failure
                 failures += 1
-                retired.append((0, self.pad.n_events, self.pad.label))
+                retired.append(self._retire())  # life_left 0: all of it was used
                 for key, value in self._failure.items():
                     costs[key] += value
                 self._install()
@@ -205,7 +229,7 @@ class PadService:
         costs: dict[str, float],
         replaced: bool,
         failures: int,
-        retired: list[tuple[int, int, str]],
+        retired: list[RetiredPad],
     ) -> dict[str, Any]:
         pad = self.pad
         assert pad is not None

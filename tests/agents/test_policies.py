@@ -8,7 +8,14 @@ import numpy as np
 import pytest
 
 from agents.evaluation import compare_policies, oracle_policy, run_episodes, summary_rows
-from agents.policies import AGE_INDEX, FixedInterval, Policy, ReplaceOnFailure, RULThreshold
+from agents.policies import (
+    AGE_INDEX,
+    FixedInterval,
+    Policy,
+    PolicyId,
+    ReplaceOnFailure,
+    RULThreshold,
+)
 from brake_env.env.brake_wear import BrakeWearEnv
 from brake_env.env.wrappers import RULObservation
 from brake_env.prognostics.protocol import NoPrognostics
@@ -75,3 +82,32 @@ def test_same_seeds_same_report(atlas):
     a = run_episodes(*oracle_policy(BrakeWearEnv(atlas=atlas, **FAST)), seeds=[4])
     b = run_episodes(*oracle_policy(BrakeWearEnv(atlas=atlas, **FAST)), seeds=[4])
     assert a.cost == b.cost and a.retired_rul_events == b.retired_rul_events
+
+
+def test_policy_ids_label_and_group_policies():
+    candidate = PolicyId("threshold", "twin", parameter=1000.0)
+    assert candidate.label == str(candidate) == "twin/threshold/1000"
+    assert candidate.family == PolicyId("threshold", "twin")
+    assert candidate.family.label == "twin/threshold"
+    assert PolicyId("threshold", "data", parameter=750.5).label == "data/threshold/750.5"
+    assert PolicyId("fixed-interval", parameter=65_000.0).label == "fixed-interval/65000"
+    assert PolicyId("agent", "twin", algo="ppo").label == "twin/ppo"
+    assert PolicyId("oracle").label == "oracle"
+    assert PolicyId("replace-on-failure").label == "replace-on-failure"
+    # Hashable and equal by value: the keys of the comparison's reports.
+    assert len({candidate, PolicyId("threshold", "twin", parameter=1000.0)}) == 1
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "message"),
+    [
+        ({"kind": "threshold"}, "have a predictor"),
+        ({"kind": "oracle", "predictor": "twin"}, "have a predictor"),
+        ({"kind": "agent", "predictor": "twin"}, "have an algo"),
+        ({"kind": "agent", "predictor": "twin", "algo": "ppo", "parameter": 1.0}, "no parameter"),
+        ({"kind": "crystal-ball"}, "kind must be one of"),
+    ],
+)
+def test_policy_ids_are_validated(kwargs, message):
+    with pytest.raises(ValueError, match=message):
+        PolicyId(**kwargs)

@@ -12,6 +12,7 @@ import torch
 from agents.cli import compare_and_report
 from agents.compare import CompareConfig
 from agents.train import TrainedAgent, agent_env, load_hyperparams, train_agent
+from brake_env.model.regime import WearRegime
 from brake_env.prognostics.protocol import NoPrognostics, Oracle
 
 FAST = {"k_mean": 1e-5, "k_std": 1e-6, "decision_interval": 500, "episode_events": 30_000}
@@ -87,15 +88,24 @@ def test_tiny_comparison_writes_well_formed_costs_and_oracle_is_cheapest(atlas, 
         thresholds=(0, 1, 4),
         fixed_intervals=(10_000, 20_000),
         episode_events=FAST["episode_events"],
-        k_mean=FAST["k_mean"],
-        k_std=FAST["k_std"],
+        wear=WearRegime(FAST["k_mean"], FAST["k_std"]),
     )
     args = argparse.Namespace(seed=0, quiet=True, preset="hot-duty", cache_dir=None, atlas=None)
-    compare_and_report(config, args, tmp_path, {"oracle": TINY})
+    returned = compare_and_report(config, args, tmp_path, {"oracle": TINY})
     costs = json.loads((tmp_path / "costs.json").read_text())
+    assert set(costs) == set(returned) and costs["eval_seeds"] == returned["eval_seeds"]
+    assert (costs["config"]["k_mean"], costs["config"]["k_std"]) == (1e-5, 1e-6)
     policies = costs["policies"]
     expected = {"none/threshold", "oracle/threshold", "oracle/ppo", "fixed-interval"}
     assert expected | {"replace-on-failure", "oracle"} == set(policies)
+    assert all(p["name"] == name for name, p in policies.items())
+    # Every candidate was tuned, labelled with its parameter; the winners' parameters are
+    # reported with their family.
+    thresholds = {f"{n}/threshold/{h}" for n in ("none", "oracle") for h in (0, 500, 2000)}
+    assert set(costs["tuning"]) == thresholds | {"fixed-interval/10000", "fixed-interval/20000"}
+    for family, value in costs["tuned_parameters"].items():
+        assert f"{family}/{value:g}" in costs["tuning"]
+        assert policies[family]["parameter"] == value
     oracle = policies["oracle"]["cost_per_1000_events"]
     for name, p in policies.items():
         assert p["cost_per_1000_events"] >= oracle - 1e-9, name
@@ -113,6 +123,16 @@ def test_compare_config_is_validated():
         CompareConfig(predictors=("crystal-ball",))
     with pytest.raises(ValueError, match="not among the predictors"):
         CompareConfig(predictors=("none",), agent_predictors=("twin",))
+    with pytest.raises(TypeError, match="WearRegime"):
+        CompareConfig(wear=(1e-5, 1e-6))
+
+
+def test_compare_config_passes_its_wear_regime_to_the_env():
+    config = CompareConfig(wear=WearRegime(1e-5, 1e-6, 4.0))
+    kwargs = config.env_kwargs
+    assert (kwargs["k_mean"], kwargs["k_std"], kwargs["ood_shift_sigma"]) == (1e-5, 1e-6, 4.0)
+    flat = config.to_dict()
+    assert "wear" not in flat and (flat["k_mean"], flat["ood_shift_sigma"]) == (1e-5, 4.0)
 
 
 def test_none_predictor_threshold_env_runs(atlas):

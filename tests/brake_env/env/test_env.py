@@ -15,6 +15,7 @@ import brake_env  # noqa: F401  (registers BrakeWear-v0)
 from agents.policies import ReplaceOnFailure, RULThreshold
 from brake_env.env.brake_wear import OBS_NAMES, BrakeWearEnv
 from brake_env.env.config import CostWeights, EnvConfig
+from brake_env.env.pads import RetiredPad
 from brake_env.env.vector import BrakeWearVectorEnv
 from brake_env.env.wrappers import RULObservation
 from brake_env.prognostics.protocol import NoPrognostics, Oracle
@@ -129,7 +130,7 @@ def test_failure_forces_replacement_and_costs_match_weights(make):
             # The failed pad used all its life; the new pad braked the rest of the step.
             cut = int(np.flatnonzero(ev.event == 0)[-1])
             assert cut == 0 or ev.rul_events[cut - 1] == 0
-            assert [r[0] for r in info["retired"]] == [0]
+            assert [(p.life_left, p.failed) for p in info["retired"]] == [(0, True)]
             assert ev.event[-1] + 1 == info["truth"]["life_events"] - info["truth"]["rul_events"]
         if trunc:
             break
@@ -137,6 +138,8 @@ def test_failure_forces_replacement_and_costs_match_weights(make):
     _, info = env.reset(seed=1)
     _, r, *_, info = env.step(1)
     assert info["replaced"] and info["costs"]["planned_replacement"] == 3.0
+    (pad,) = info["retired"]  # the first pad, taken off after its first event
+    assert pad == RetiredPad(pad.life - 1, pad.life, "id") and not pad.failed
     assert r == pytest.approx(0.5 * 5000 - 3.0)
 
 
