@@ -25,7 +25,6 @@ from brake_env.data.datasets import SPLITS
 from brake_env.data.schema import read_event_log
 from brake_env.model.atlas import Atlas
 from brake_env.prognostics.evaluation import Evaluation, EvaluationConfig, evaluate
-from brake_env.prognostics.plots import plot_all
 from brake_env.prognostics.protocol import Predictor
 from brake_env.prognostics.registry import make_predictor, predictor_names
 
@@ -162,6 +161,8 @@ def cmd_evaluate(args: argparse.Namespace, skip_unfittable: bool = False) -> dic
     for name, s in fit_s.items():
         ev.metrics["models"][name]["fit_seconds"] = s
     saved = _save_models(predictors, out)
+    from brake_env.prognostics.plots import plot_all  # matplotlib: only when plotting
+
     figs = plot_all(ev, out / "figures")
     ev.metrics.update(
         data_dir=str(Path(args.data)),
