@@ -14,7 +14,6 @@ import time
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 from tqdm import tqdm
 
 from brake_env.cli.common import add_common_args, int_at_least, load_atlas, table, write_json
@@ -24,9 +23,11 @@ from brake_env.data.datasets import SPLITS, DatasetSpec, write_dataset
 from brake_env.data.schema import read_event_log
 from brake_env.model.atlas import Atlas
 from brake_env.model.regime import WearRegime
-from sim2real.diagnose import NONE, DiagnosisConfig, diagnose
-from sim2real.effects import Effect, describe_library, parse_effect, registry
-from sim2real.report import write_outputs
+from sim2real.config import DiagnosisConfig
+from sim2real.diagnose import diagnose
+from sim2real.effects import Effect
+from sim2real.library import describe_library, parse_effect, registry
+from sim2real.report import validation_figures, validation_text, write_outputs
 from sim2real.rul import rul_scorer
 from sim2real.truth import TruthSpec, simulate_truth
 from sim2real.validate import ValidationSpec, validate_gap
@@ -133,106 +134,6 @@ def cmd_diagnose(args: argparse.Namespace) -> dict[str, Any]:
 
 
 # ---------------------------------------------------------------------- validate-gap
-def _render_validation(r: dict[str, Any]) -> tuple[str, str]:
-    """(terminal text, Markdown) of a validation result."""
-    labels = r["labels"]
-    short = [lab if lab != NONE else "none" for lab in labels]
-    rows = [["withheld \\ answer", *short]]
-    for e in r["rows"]:
-        rows.append(
-            [e if e != NONE else "none (control)", *[str(r["confusion"][e][a]) for a in labels]]
-        )
-    conf = table(rows)
-    rows = [
-        [
-            "case",
-            "answer",
-            "channel",
-            "gap before",
-            "gap after",
-            "shrink",
-            "RUL before",
-            "RUL after",
-            "s",
-        ]
-    ]
-    for c in r["cases"]:
-        rows.append(
-            [
-                c["case"],
-                "none" if c["answer"] == NONE else c["answer"],
-                c["channel"],
-                f"{c['gap_before']:.3f}",
-                "-" if c["gap_after"] is None else f"{c['gap_after']:.3f}",
-                "-" if c["shrink"] is None else f"{c['shrink']:.0%}",
-                f"{c['rul_before']:.0f}" if "rul_before" in c else "-",
-                f"{c['rul_after']:.0f}" if "rul_after" in c else "-",
-                f"{c['seconds_simulate'] + c['seconds_diagnose']:.0f}",
-            ]
-        )
-    cases = table(rows)
-    rows = [["target", "measured", "required", "n", "met"]]
-    for k, t in r["targets"].items():
-        v = "-" if t["value"] is None else f"{t['value']:.0%}"
-        rows.append([k, v, f">= {t['target']:.0%}", str(t["n"]), "yes" if t["met"] else "NO"])
-    targets = table(rows)
-    head = "confusion matrix (rows: withheld effect, columns: diagnosis)"
-    text = f"{head}\n{conf}\n\n{cases}\n\n{targets}"
-    md = f"```\n{text}\n```\n"
-    return text, md
-
-
-def _validation_figures(r: dict[str, Any], out: Path) -> list[Path]:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    labels, row_labels = r["labels"], r["rows"]
-    m = np.array([[r["confusion"][e][a] for a in labels] for e in row_labels], dtype=float)
-    short = [lab if lab != NONE else "none" for lab in labels]
-    short_rows = [lab if lab != NONE else "none (control)" for lab in row_labels]
-    fig, ax = plt.subplots(figsize=(8, 7))
-    ax.imshow(m / np.maximum(m.sum(axis=1, keepdims=True), 1), cmap="Blues", vmin=0, vmax=1)
-    for i in range(len(row_labels)):
-        for j in range(len(labels)):
-            if m[i, j]:
-                ax.text(j, i, f"{m[i, j]:.0f}", ha="center", va="center")
-    ax.set_xticks(range(len(labels)), short, rotation=45, ha="right")
-    ax.set_yticks(range(len(row_labels)), short_rows)
-    ax.set_xlabel("diagnosis")
-    ax.set_ylabel("withheld effect")
-    ax.set_title("Attribution of withheld effects")
-    fig.tight_layout()
-    paths = [out / "confusion.png"]
-    fig.savefig(paths[0], dpi=110)
-    plt.close(fig)
-
-    hits = [c for c in r["cases"] if c["shrink"] is not None]
-    fig, axes = plt.subplots(1, 2, figsize=(13, 4.5))
-    names = [c["case"] for c in hits]
-    y = np.arange(len(hits))
-    axes[0].barh(y - 0.2, [c["gap_before"] for c in hits], 0.4, label="nominal")
-    axes[0].barh(y + 0.2, [c["gap_after"] for c in hits], 0.4, label="with fitted effect")
-    axes[0].set_yticks(y, names, fontsize=7)
-    axes[0].set_xscale("log")
-    axes[0].set_xlabel("held-out structured gap in the affected channel [noise units]")
-    axes[0].legend(fontsize=8)
-    rul = [c for c in hits if "rul_before" in c]
-    y2 = np.arange(len(rul))
-    axes[1].barh(y2 - 0.2, [c["rul_before"] for c in rul], 0.4, label="nominal twin")
-    axes[1].barh(y2 + 0.2, [c["rul_after"] for c in rul], 0.4, label="twin with the effect")
-    axes[1].set_yticks(y2, [c["case"] for c in rul], fontsize=7)
-    axes[1].set_xscale("log")
-    axes[1].set_xlabel("twin RUL RMSE on held-out runs [events]")
-    axes[1].legend(fontsize=8)
-    fig.tight_layout()
-    paths.append(out / "shrink.png")
-    fig.savefig(paths[1], dpi=110)
-    plt.close(fig)
-    return paths
-
-
 def cmd_validate_gap(args: argparse.Namespace) -> dict[str, Any]:
     out = Path(args.out)
     atlas = load_atlas(args)
@@ -269,10 +170,10 @@ def cmd_validate_gap(args: argparse.Namespace) -> dict[str, Any]:
         "jobs": args.jobs,
     }
     write_json(r, out / "validation.json")
-    text, md = _render_validation(r)
-    figs = _validation_figures(r, out)
+    text = validation_text(r)
+    figs = validation_figures(r, out)
     (out / "validation.md").write_text(
-        f"# Withheld-effect validation (seed {args.seed})\n\n{md}\n"
+        f"# Withheld-effect validation (seed {args.seed})\n\n```\n{text}\n```\n\n"
         + "\n".join(f"![{p.stem}]({p.name})" for p in figs)
         + "\n"
     )
@@ -315,23 +216,32 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
     """Add this package's subcommands to the ``brakewear`` parser."""
     sim = sub.choices.get("simulate")
     if sim is not None:
-        sim.add_argument(
-            "--effect",
-            action="append",
-            type=_effect_arg,
-            default=None,
-            metavar="NAME[:PARAM=VALUE,...]",
-            help="attach an unmodelled effect (repeatable; truth simulator). Names: "
-            + ", ".join(sorted(registry())),
-        )
-        sim.add_argument(
-            "--mean-gap-s",
-            type=float,
-            default=60.0,
-            help="mean time between events with --effect [s]",
-        )
-        sim.set_defaults(func=cmd_simulate_truth)
+        _add_effect_args(sim)
+    _add_diagnose(sub)
+    _add_validate_gap(sub)
 
+
+def _add_effect_args(sim: argparse.ArgumentParser) -> None:
+    """``brakewear simulate --effect``: the truth simulator."""
+    sim.add_argument(
+        "--effect",
+        action="append",
+        type=_effect_arg,
+        default=None,
+        metavar="NAME[:PARAM=VALUE,...]",
+        help="attach an unmodelled effect (repeatable; truth simulator). Names: "
+        + ", ".join(sorted(registry())),
+    )
+    sim.add_argument(
+        "--mean-gap-s",
+        type=float,
+        default=60.0,
+        help="mean time between events with --effect [s]",
+    )
+    sim.set_defaults(func=cmd_simulate_truth)
+
+
+def _add_diagnose(sub: argparse._SubParsersAction[Any]) -> None:
     d = sub.add_parser(
         "diagnose", formatter_class=_FMT, help="diagnose the sim-to-real gap of an event log"
     )
@@ -348,6 +258,8 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
     d.add_argument("--no-rul", action="store_true", help="skip the twin's RUL error")
     d.set_defaults(func=cmd_diagnose)
 
+
+def _add_validate_gap(sub: argparse._SubParsersAction[Any]) -> None:
     v = sub.add_parser(
         "validate-gap",
         formatter_class=_FMT,

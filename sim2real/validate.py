@@ -1,4 +1,4 @@
-"""Validation of the diagnosis on data whose effect is withheld from the model (issue 6).
+"""Validation of the diagnosis on data whose effect is withheld from the model (DESIGN 7, validate).
 
 For each library effect at a few magnitudes inside its range, truth logs are simulated with
 the effect, the nominal model (which does not know it) diagnoses them, and the attribution
@@ -26,8 +26,11 @@ from numpy.typing import ArrayLike
 from brake_env.data.datasets import DatasetSpec
 from brake_env.model.atlas import Atlas
 from brake_env.model.regime import WearRegime
-from sim2real.diagnose import NONE, DiagnosisConfig, diagnose
-from sim2real.effects import LIBRARY, Effect, EventState, Param
+from sim2real.attribute import NONE
+from sim2real.config import DiagnosisConfig
+from sim2real.diagnose import diagnose
+from sim2real.effects import Effect, EventState, Param
+from sim2real.library import LIBRARY
 from sim2real.rul import rul_scorer
 from sim2real.truth import TruthSpec, simulate_truth
 
@@ -74,37 +77,40 @@ class ValidationSpec:
     config: DiagnosisConfig = field(default_factory=DiagnosisConfig)
 
 
-def cases(spec: ValidationSpec, seed: int) -> list[tuple[str, str, list[Effect], int]]:
-    """(case label, expected answer, effects, seed) of every validation case."""
-    out: list[tuple[str, str, list[Effect], int]] = []
+@dataclass(frozen=True, eq=False)
+class Case:
+    """One validation case.
+
+    Attributes:
+        label: Shown in reports (``name:param=value``, ``control``, ...).
+        expected: The answer a correct diagnosis gives (an effect name, or ``NONE``).
+        effects: The effects the truth logs are simulated with (withheld from the model).
+        seed: Seeds the truth logs and the diagnosis.
+    """
+
+    label: str
+    expected: str
+    effects: list[Effect]
+    seed: int
+
+
+def cases(spec: ValidationSpec, seed: int) -> list[Case]:
+    """Every validation case: each library effect at its mid magnitude (and half of it),
+    the no-effect controls and the out-of-library effect."""
+    out: list[Case] = []
     for cls in LIBRARY:
         p = cls.params[0]
         mags = [("mid", p.mid)]
         if spec.low_magnitude:
             mags.append(("low", p.neutral + 0.5 * (p.mid - p.neutral)))
         for tag, val in mags:
-            n = spec.seeds_mid if tag == "mid" else 1
-            for i in range(n):
-                out.append(
-                    (
-                        f"{cls.name}:{p.name}={val:g}",
-                        cls.name,
-                        [cls(**{p.name: val})],
-                        seed * 1000 + len(out),
-                    )
-                )
-                del i
+            for _ in range(spec.seeds_mid if tag == "mid" else 1):
+                label = f"{cls.name}:{p.name}={val:g}"
+                out.append(Case(label, cls.name, [cls(**{p.name: val})], seed * 1000 + len(out)))
     for _ in range(spec.n_controls):
-        out.append(("control", NONE, [], seed * 1000 + len(out)))
+        out.append(Case("control", NONE, [], seed * 1000 + len(out)))
     for _ in range(spec.n_out_of_library):
-        out.append(
-            (
-                "pad_glazing:g=0.15 (not a candidate)",
-                NONE,
-                [PadGlazing(g=0.15)],
-                seed * 1000 + len(out),
-            )
-        )
+        out.append(Case(_OOL_CASE, NONE, [PadGlazing(g=0.15)], seed * 1000 + len(out)))
     return out
 
 
@@ -122,13 +128,15 @@ def validate_gap(
     seeded by its own number, so the records do not depend on ``jobs``).
     """
     spec = spec or ValidationSpec()
-    todo = [c for c in cases(spec, seed) if not case_filter or any(f in c[0] for f in case_filter)]
+    todo = [
+        c for c in cases(spec, seed) if not case_filter or any(f in c.label for f in case_filter)
+    ]
     if jobs <= 1:
         records = []
         for case in todo:
             records.append(run_case(atlas, spec, case))
             if progress:
-                progress(f"{case[0]}: {records[-1]['answer']}")
+                progress(f"{case.label}: {records[-1]['answer']}")
     else:
         with ProcessPoolExecutor(max_workers=jobs, mp_context=get_context("spawn")) as pool:
             futures = [pool.submit(run_case, atlas, spec, case) for case in todo]
@@ -144,11 +152,8 @@ def validate_gap(
     return {"cases": records, **summarise(records)}
 
 
-def run_case(
-    atlas: Atlas, spec: ValidationSpec, case: tuple[str, str, list[Effect], int]
-) -> dict[str, Any]:
+def run_case(atlas: Atlas, spec: ValidationSpec, case: Case) -> dict[str, Any]:
     """Simulate one case's truth logs, diagnose them and record the attribution."""
-    label, expected, effects, s = case
     ds = DatasetSpec(
         n_train=spec.n_runs,
         n_id=0,
@@ -158,18 +163,18 @@ def run_case(
         route_block_events=spec.route_block_events,
     )
     t0 = time.perf_counter()
-    log = simulate_truth(atlas.spec, effects, TruthSpec(ds), seed=s)["train"]
+    log = simulate_truth(atlas.spec, case.effects, TruthSpec(ds), seed=case.seed)["train"]
     t_sim = time.perf_counter() - t0
     rul = rul_scorer(atlas) if spec.with_rul else None
-    res = diagnose(log, atlas, config=spec.config, seed=s, rul=rul)
+    res = diagnose(log, atlas, config=spec.config, seed=case.seed, rul=rul)
     a, q = res.summary["attribution"], res.summary["quantify"]
     ch = q["channel"]
     rec: dict[str, Any] = {
-        "case": label,
-        "expected": expected,
+        "case": case.label,
+        "expected": case.expected,
         "answer": a["verdict"],
-        "seed": s,
-        "correct": a["verdict"] == expected,
+        "seed": case.seed,
+        "correct": a["verdict"] == case.expected,
         "reason": a["reason"],
         "fitted": a["winner"],
         "channel": ch,
@@ -179,79 +184,79 @@ def run_case(
         "seconds_simulate": t_sim,
         "seconds_diagnose": time.perf_counter() - t0 - t_sim,
     }
-    rul_q = q.get("rul") or {}
+    return {**rec, **_rul_record(q.get("rul") or {})}
+
+
+def _rul_record(rul_q: dict[str, Any]) -> dict[str, float]:
+    """The twin's RUL RMSE before and after, and its shrink, where they were scored."""
     b, af = rul_q.get("before"), rul_q.get("after")
+    out = {}
     if b and "rmse" in b:
-        rec["rul_before"] = b["rmse"]
+        out["rul_before"] = b["rmse"]
     if b and af and "rmse" in b and "rmse" in af:
-        rec["rul_after"] = af["rmse"]
-        rec["rul_shrink"] = 1.0 - af["rmse"] / max(b["rmse"], 1e-9)
-    return rec
+        out["rul_after"] = af["rmse"]
+        out["rul_shrink"] = 1.0 - af["rmse"] / max(b["rmse"], 1e-9)
+    return out
 
 
 def summarise(records: list[dict[str, Any]]) -> dict[str, Any]:
-    """Confusion matrix (expected x answer) and the issue's targets."""
+    """Confusion matrix (expected x answer) and the validation targets."""
     labels = sorted(
         {r["expected"] for r in records} | {r["answer"] for r in records},
         key=lambda x: (x == NONE, x),
     )
     # Rows: the withheld effect (controls "none", the out-of-library effect by its name).
     rows = [lab for lab in labels if lab != NONE]
-    if any("not a candidate" in r["case"] for r in records):
+    if any(_is_ool(r) for r in records):
         rows.append(_OOL)
     rows.append(NONE)
     conf = {e: {a: 0 for a in labels} for e in rows}
     for r in records:
-        conf[_OOL if "not a candidate" in r["case"] else r["expected"]][r["answer"]] += 1
+        conf[_OOL if _is_ool(r) else r["expected"]][r["answer"]] += 1
+    return {"labels": labels, "rows": rows, "confusion": conf, "targets": targets(records)}
+
+
+def targets(records: list[dict[str, Any]]) -> dict[str, dict[str, Any]]:
+    """Each target of the validation: measured value, required value, cases, met."""
     lib = [r for r in records if r["expected"] != NONE and _is_mid(r["case"])]
     ctrl = [r for r in records if r["case"] == "control"]
-    ool = [r for r in records if "not a candidate" in r["case"]]
+    ool = [r for r in records if _is_ool(r)]
     hits = [r for r in lib if r["correct"] and r["shrink"] is not None]
-
-    def frac(xs: list[bool]) -> float | None:
-        return float(np.mean(xs)) if xs else None
-
     # The twin's RUL is "affected" where its error on the effect's runs exceeds 1.5x its
     # median error on the no-effect controls (otherwise there is nothing to shrink).
     ctrl_rul = [r["rul_before"] for r in ctrl if "rul_before" in r]
     floor = 1.5 * float(np.median(ctrl_rul)) if ctrl_rul else 0.0
     rul = [r["rul_shrink"] for r in hits if "rul_shrink" in r and r["rul_before"] > floor]
-    targets: dict[str, dict[str, Any]] = {
-        "top1_mid_library": {
-            "value": frac([r["correct"] for r in lib]),
-            "target": 0.9,
-            "n": len(lib),
-        },
-        "none_on_controls": {
-            "value": frac([r["correct"] for r in ctrl]),
-            "target": 0.95,
-            "n": len(ctrl),
-        },
-        "abstain_out_of_library": {
-            "value": frac([r["correct"] for r in ool]),
-            "target": 1.0,
-            "n": len(ool),
-        },
-        "gap_shrink_median": {
-            "value": float(np.median([r["shrink"] for r in hits])) if hits else None,
-            "target": 0.7,
-            "n": len(hits),
-        },
-        "gap_shrink_min": {
-            "value": float(min(r["shrink"] for r in hits)) if hits else None,
-            "target": 0.7,
-            "n": len(hits),
-        },
+    shrink = [r["shrink"] for r in hits]
+    out: dict[str, dict[str, Any]] = {
+        "top1_mid_library": _target(_frac([r["correct"] for r in lib]), 0.9, len(lib)),
+        "none_on_controls": _target(_frac([r["correct"] for r in ctrl]), 0.95, len(ctrl)),
+        "abstain_out_of_library": _target(_frac([r["correct"] for r in ool]), 1.0, len(ool)),
+        "gap_shrink_median": _target(float(np.median(shrink)) if hits else None, 0.7, len(hits)),
+        "gap_shrink_min": _target(float(min(shrink)) if hits else None, 0.7, len(hits)),
         "rul_rmse_shrink_median_affected": {
-            "value": float(np.median(rul)) if rul else None,
-            "target": 0.5,
-            "n": len(rul),
+            **_target(float(np.median(rul)) if rul else None, 0.5, len(rul)),
             "affected_above_events": floor,
         },
     }
-    for t in targets.values():
+    for t in out.values():
         t["met"] = t["value"] is not None and t["value"] >= t["target"]
-    return {"labels": labels, "rows": rows, "confusion": conf, "targets": targets}
+    return out
+
+
+def _target(value: float | None, target: float, n: int) -> dict[str, Any]:
+    return {"value": value, "target": target, "n": n}
+
+
+def _frac(xs: list[bool]) -> float | None:
+    return float(np.mean(xs)) if xs else None
+
+
+_OOL_CASE = "pad_glazing:g=0.15 (not a candidate)"
+
+
+def _is_ool(record: dict[str, Any]) -> bool:
+    return "not a candidate" in record["case"]
 
 
 _OOL = "pad_glazing (not a candidate)"

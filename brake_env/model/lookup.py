@@ -2,12 +2,16 @@
 every atlas layer (paper 2.1.2). The one home of locating conditions in the grid and
 gathering cell corners; :class:`~brake_env.model.atlas.Atlas` queries go through it, and so
 do the twin (every layer at once) and sim2real (several atlases on one grid).
+:class:`RegularGridInterp` is the same interpolation on any regular grid of any number of
+axes (sim2real's coarse grids over speed, mass, slope and volume).
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 F64 = NDArray[np.float64]
 AXIS_NAMES = ("speed_mps", "mass_kg", "slope_rad")
@@ -107,6 +111,75 @@ class GridLookup:
         dslope = float(self.axes[2][1] - self.axes[2][0])
         c = lo + ft * (hi - lo)
         return _bilerp(c, fs[:, 0], fm[:, 0]), _bilerp((hi - lo) / dslope, fs[:, 0], fm[:, 0])
+
+
+class RegularGridInterp:
+    """Multilinear interpolation on a regular grid of any number of axes.
+
+    Points outside the grid are clamped to it; a point within rounding of a node is that
+    node, so node values come back exactly. Vectorised over points: one gather per cell
+    corner (2^d of them), whatever the number of points.
+
+    Args:
+        axes: Node coordinates of each axis, evenly spaced and increasing, 2 or more each.
+        values: Array of shape (n_0, ..., n_{d-1}) or (n_0, ..., n_{d-1}, fields).
+    """
+
+    def __init__(self, axes: Sequence[ArrayLike], values: ArrayLike) -> None:
+        ax = [np.asarray(a, dtype=np.float64) for a in axes]
+        vals = np.asarray(values, dtype=np.float64)
+        shape = tuple(a.size for a in ax)
+        if not ax or any(a.ndim != 1 or a.size < 2 for a in ax):
+            raise ValueError("RegularGridInterp needs one or more axes of 2 or more nodes")
+        if vals.shape[: len(ax)] != shape or vals.ndim > len(ax) + 1:
+            raise ValueError(
+                f"values of shape {vals.shape} do not match axes of sizes {shape}"
+                " (optionally followed by one fields axis)"
+            )
+        for i, a in enumerate(ax):
+            d = np.diff(a)
+            if not np.all(d > 0) or not np.allclose(d, d[0], rtol=1e-9, atol=0.0):
+                raise ValueError(f"axis {i} must be evenly spaced and increasing")
+        self.scalar = vals.ndim == len(ax)
+        self.lo = np.array([a[0] for a in ax])
+        self.step = np.array([(a[-1] - a[0]) / (a.size - 1) for a in ax])
+        self.n = np.array(shape)
+        self.values = vals.reshape(int(np.prod(shape)), -1)
+        strides = np.array([int(np.prod(shape[i + 1 :])) for i in range(len(ax))])
+        # Corner c takes the upper node along axis a where bit a of c is set.
+        self._bits = (np.arange(2 ** len(ax))[:, None] >> np.arange(len(ax))) & 1
+        self._offsets = self._bits @ strides
+        self._strides = strides
+
+    @property
+    def ndim(self) -> int:
+        return int(self.n.size)
+
+    def __call__(self, points: ArrayLike, cols: Sequence[int] | None = None) -> F64:
+        """Values at ``points`` (..., d): shape (...) for scalar values, else (..., fields),
+        or only the fields ``cols``."""
+        pts = np.asarray(points, dtype=np.float64)
+        if pts.shape[-1:] != (self.ndim,):
+            raise ValueError(f"points must have shape (..., {self.ndim}), got {pts.shape}")
+        lead = pts.shape[:-1]
+        x = pts.reshape(-1, self.ndim)
+        vals = self.values if cols is None else self.values[:, list(cols)]
+        u = np.clip((x - self.lo) / self.step, 0.0, self.n - 1.0)
+        r = np.rint(u)
+        u = np.where(np.abs(u - r) < 1e-9, r, u)
+        i = np.minimum(u.astype(np.int64), self.n - 2)
+        f = u - i
+        g = 1.0 - f
+        base = i @ self._strides
+        out = np.zeros((x.shape[0], vals.shape[1]))
+        for bits, off in zip(self._bits, self._offsets, strict=True):
+            w = np.ones(x.shape[0])
+            for a in range(self.ndim):
+                w = w * (f[:, a] if bits[a] else g[:, a])
+            out += w[:, None] * vals[base + off]
+        if self.scalar and cols is None:
+            return out[:, 0].reshape(lead)
+        return out.reshape(*lead, vals.shape[1])
 
 
 def trilinear(g: F64, f: F64) -> F64:

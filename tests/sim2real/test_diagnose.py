@@ -11,13 +11,13 @@ from numpy.typing import ArrayLike
 from brake_env.cli.main import main
 from brake_env.data.schema import EventLogError, read_event_log, write_event_log
 from brake_env.model.atlas import Atlas
-from sim2real.diagnose import NONE, DiagnosisConfig, diagnose
-from sim2real.effects import (
-    Effect,
-    EventState,
+from sim2real.attribute import NONE
+from sim2real.config import DiagnosisConfig
+from sim2real.diagnose import diagnose
+from sim2real.effects import Effect, EventState, Param
+from sim2real.library import (
     HeatPartition,
     NewtonCooling,
-    Param,
     SpeedFriction,
     ThermocoupleBias,
     register,

@@ -9,12 +9,10 @@ import pytest
 
 from brake_env.data.datasets import make_dataset
 from brake_env.model.atlas import Atlas, AtlasSpec
-from sim2real.effects import (
+from sim2real.effects import Effect, InEventPhysics, SensorContext
+from sim2real.library import (
     LIBRARY,
-    Effect,
-    InEventPhysics,
     NewtonCooling,
-    SensorContext,
     ThermocoupleBias,
     ThermocoupleLag,
     parse_effect,
