@@ -28,6 +28,7 @@ import pandas as pd
 from baselines._runs import run_lives
 from brake_env.model.atlas import Atlas
 from brake_env.model.materials import hardness_mpa
+from brake_env.model.wear import WearModel
 from brake_env.prognostics.protocol import EventBatch, Predictor, RULEstimate
 
 ROOM_TEMP_C = 20.0
@@ -59,27 +60,30 @@ class PhysicsPredictor(Predictor):
         self.wear_per_k_m3 = model.brake.normal_force_n * 1e-6 * slide / h20
         self.pad_volume_m3 = model.brake.pad_volume_m3
         self.failure_volume = atlas.failure_volume
+        # The wear clock of this model: one layer from fresh to failure at constant wear.
+        self.wear = WearModel.from_layer_wear(
+            np.array([1.0]),
+            np.array([self.failure_volume]),
+            np.array([self.wear_per_k_m3]),
+            self.pad_volume_m3,
+        )
         self.k_runs: pd.Series | None = None
         self.k_avg: float | None = None
         self.life_events: float | None = None
-
-    @property
-    def _wearable_m3(self) -> float:
-        return (1.0 - self.failure_volume) * self.pad_volume_m3
 
     def k_for_life(self, life_events: float | np.ndarray) -> np.ndarray:
         """The coefficient K under which a pad lasts ``life_events`` mean events."""
         life = np.asarray(life_events, dtype=np.float64)
         if np.any(life <= 0):
             raise ValueError("lives must be > 0 events")
-        return self._wearable_m3 / (life * self.wear_per_k_m3)
+        return self.wear.life_work / life
 
     def set_k(self, k_avg: float) -> None:
         """Fix the model's coefficient (``fit`` does this from training runs)."""
         if not k_avg > 0:
             raise ValueError(f"physics: K must be > 0, got {k_avg}")
         self.k_avg = float(k_avg)
-        self.life_events = self._wearable_m3 / (self.k_avg * self.wear_per_k_m3)
+        self.life_events = float(self.wear.life(self.k_avg))
 
     def _fit(self, train_log: pd.DataFrame) -> None:
         lives = run_lives(train_log)
@@ -90,10 +94,9 @@ class PhysicsPredictor(Predictor):
         if self.life_events is None or self.k_avg is None:
             raise RuntimeError("physics: call fit() (or set_k()) before update()")
         done = events.event.astype(np.float64) + 1.0  # events completed after each event
-        dv = self.k_avg * self.wear_per_k_m3 / self.pad_volume_m3
         return RULEstimate(
             rul_mean=np.maximum(self.life_events - done, 0.0),
-            volume_frac=np.maximum(1.0 - done * dv, self.failure_volume),
+            volume_frac=self.wear.volume_at_work(self.k_avg * done),
         )
 
 
