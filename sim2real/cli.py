@@ -1,4 +1,6 @@
-"""``brakewear`` subcommands of the sim-to-real package (registered as a plug-in).
+"""``brakewear`` subcommands of the sim-to-real package (registered as a plug-in; the
+diagnosis, the truth simulator and their plots are imported by the commands that run them,
+so that parsing the command line stays fast).
 
 - ``simulate --effect NAME[:PARAM=VALUE,...]`` (repeatable): the truth simulator, writing the
   same event-log files as ``brakewear simulate`` (plus ``time_s``);
@@ -12,7 +14,7 @@ from __future__ import annotations
 import argparse
 import time
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from tqdm import tqdm
 
@@ -23,14 +25,11 @@ from brake_env.data.datasets import SPLITS, DatasetSpec, write_dataset
 from brake_env.data.schema import read_event_log
 from brake_env.model.atlas import Atlas
 from brake_env.model.regime import WearRegime
-from sim2real.config import DiagnosisConfig
-from sim2real.diagnose import diagnose
 from sim2real.effects import Effect
 from sim2real.library import describe_library, parse_effect, registry
-from sim2real.report import validation_figures, validation_text, write_outputs
-from sim2real.rul import rul_scorer
-from sim2real.truth import TruthSpec, simulate_truth
-from sim2real.validate import ValidationSpec, validate_gap
+
+if TYPE_CHECKING:
+    from sim2real.config import DiagnosisConfig
 
 _FMT = argparse.ArgumentDefaultsHelpFormatter
 
@@ -45,6 +44,8 @@ def _effect_arg(text: str) -> Effect:
 # ---------------------------------------------------------------------- simulate --effect
 def cmd_simulate_truth(args: argparse.Namespace) -> dict[str, Any]:
     """``brakewear simulate``: the truth simulator when effects are given, else the nominal."""
+    from sim2real.truth import TruthSpec, simulate_truth
+
     effects: list[Effect] = args.effect or []
     if not effects:
         return cmd_simulate(args)
@@ -99,10 +100,16 @@ def cmd_simulate_truth(args: argparse.Namespace) -> dict[str, Any]:
 
 # ---------------------------------------------------------------------- diagnose
 def _config(args: argparse.Namespace) -> DiagnosisConfig:
+    from sim2real.config import DiagnosisConfig
+
     return DiagnosisConfig(calibration_fraction=args.calibration_fraction)
 
 
 def cmd_diagnose(args: argparse.Namespace) -> dict[str, Any]:
+    from sim2real.diagnose import diagnose
+    from sim2real.report import write_outputs
+    from sim2real.rul import rul_scorer
+
     out = Path(args.out)
     log = read_event_log(args.real)
     atlas = Atlas.load(args.model) if args.model else load_atlas(args)
@@ -135,6 +142,9 @@ def cmd_diagnose(args: argparse.Namespace) -> dict[str, Any]:
 
 # ---------------------------------------------------------------------- validate-gap
 def cmd_validate_gap(args: argparse.Namespace) -> dict[str, Any]:
+    from sim2real.report import validation_figures, validation_text
+    from sim2real.validate import ValidationSpec, validate_gap
+
     out = Path(args.out)
     atlas = load_atlas(args)
     spec = ValidationSpec(
@@ -188,6 +198,11 @@ def cmd_validate_gap(args: argparse.Namespace) -> dict[str, Any]:
 # ---------------------------------------------------------------------- demo stage
 def demo_stage(ctx: DemoContext) -> tuple[dict[str, Any], str]:
     """One withheld-effect case: truth logs with speed-dependent friction, diagnosed."""
+    from sim2real.diagnose import diagnose
+    from sim2real.report import write_outputs
+    from sim2real.rul import rul_scorer
+    from sim2real.truth import TruthSpec, simulate_truth
+
     out = ctx.out / "sim2real"
     atlas = Atlas.load(ctx.atlas_file)
     effect = parse_effect("speed_friction:a=0.2")
