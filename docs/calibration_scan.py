@@ -17,7 +17,7 @@ import numpy as np
 
 from brake_env.model.atlas import Atlas, AtlasSpec
 from brake_env.model.params import BrakeModel
-from brake_env.model.physics import critical_volume, simulate_events
+from brake_env.model.physics import critical_volume, end_of_life, simulate_events
 from brake_env.model.wear import WearModel
 
 N_MC = 100_000
@@ -25,7 +25,7 @@ N_MC = 100_000
 
 def study(model: BrakeModel, s, m, th) -> tuple[float, float, float, float]:
     vc = critical_volume(model)
-    end = max(vc, model.brake.min_volume_frac)  # failure, or the wear-out limit
+    end = end_of_life(vc, model)  # failure, or the wear-out limit
     last = 1.0 - 0.01 * math.floor((1.0 - end) / 0.01 + 1e-9)
     w1 = simulate_events(s, m, th, last, model).wear_per_k_m3
     w0 = simulate_events(s, m, th, 1.0, model).wear_per_k_m3
