@@ -49,3 +49,25 @@ def test_torch_only_in_the_mlp_and_the_agents() -> None:
         if "torch" in names
     }
     assert users <= {"baselines/mlp.py"}
+
+
+PACKAGES = ("brake_env", "twin", "baselines", "agents", "sim2real")
+MAX_FUNCTION_LINES = 60
+MAX_MODULE_LINES = 400
+
+
+def test_functions_and_modules_stay_short() -> None:
+    """Long functions are split into named steps; modules keep to one job (STYLE 5)."""
+    long_functions, long_modules = [], []
+    for path in sorted(p for pkg in PACKAGES for p in (ROOT / pkg).rglob("*.py")):
+        src = path.read_text()
+        rel = path.relative_to(ROOT)
+        if src.count("\n") > MAX_MODULE_LINES:
+            long_modules.append(f"{rel} ({src.count(chr(10))} lines)")
+        for node in ast.walk(ast.parse(src)):
+            if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef):
+                n = (node.end_lineno or node.lineno) - node.lineno + 1
+                if n > MAX_FUNCTION_LINES:
+                    long_functions.append(f"{rel}:{node.name} ({n} lines)")
+    assert not long_functions, f"functions over {MAX_FUNCTION_LINES} lines: {long_functions}"
+    assert not long_modules, f"modules over {MAX_MODULE_LINES} lines: {long_modules}"
