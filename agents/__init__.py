@@ -1,2 +1,2 @@
-"""Stable-Baselines3 agents, rule-based policies and the cost comparison (DESIGN 1.4;
-README, "Maintenance cost by predictor")."""
+"""Stable-Baselines3 agents, rule-based policies and the cost comparison (README
+"Maintenance cost by predictor")."""

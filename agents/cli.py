@@ -2,7 +2,7 @@
 
 The ``brakewear`` parser loads this module to register the commands, so it imports only
 what parsing needs; the training and the comparison (torch, SB3) are imported by the
-commands that run them (DESIGN 2; ``brakewear --help`` stays fast).
+commands that run them (README "Architecture"; ``brakewear --help`` stays fast).
 """
 
 from __future__ import annotations
@@ -21,11 +21,10 @@ from brake_env.cli.common import (
     add_wear_args,
     int_at_least,
     load_atlas,
-    table,
     wear_regime,
-    write_json,
 )
 from brake_env.env.config import REGIMES
+from brake_env.output import table, write_json
 from brake_env.prognostics.registry import predictor_names
 
 if TYPE_CHECKING:
@@ -60,9 +59,7 @@ def _env_kwargs(args: argparse.Namespace) -> dict[str, Any]:
         "regime": args.regime,
         "decision_interval": args.decision_interval,
         "episode_events": args.episode_events,
-        "k_mean": wear.k_mean,
-        "k_std": wear.k_std,
-        "ood_shift_sigma": wear.ood_shift_sigma,
+        **wear.env_kwargs(),
     }
 
 

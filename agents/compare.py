@@ -4,7 +4,7 @@
 For each predictor: an RUL-threshold policy with its threshold tuned on training seeds, and
 a trained SB3 agent. Beside them: the fixed-interval policy with its interval tuned,
 replace-on-failure, and the oracle. All are evaluated on the same held-out seeds, so they
-meet the same pads under the same operating conditions (DESIGN 9: common random numbers).
+meet the same pads under the same operating conditions (common random numbers).
 Because the decisions of a policy do not depend on the cost weights, the tuning runs also
 give the best threshold under other failure-to-planned cost ratios, and the ranking under
 each ratio follows.
@@ -111,9 +111,7 @@ class CompareConfig:
             "ood_share": self.ood_share,
             "decision_interval": self.decision_interval,
             "episode_events": self.episode_events,
-            "k_mean": self.wear.k_mean,
-            "k_std": self.wear.k_std,
-            "ood_shift_sigma": self.wear.ood_shift_sigma,
+            **self.wear.env_kwargs(),
         }
 
     def to_dict(self) -> dict[str, Any]:

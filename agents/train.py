@@ -23,7 +23,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agents.features import AgentFeatures
-from agents.hyperparameters import ALGOS, VecSettings, check_algo, load_hyperparams
+from agents.hyperparameters import VecSettings, check_algo, load_hyperparams
 from brake_env.env.brake_wear import BrakeWearEnv
 from brake_env.env.pads import PadLife
 from brake_env.env.wrappers import RULObservation
@@ -35,7 +35,7 @@ if TYPE_CHECKING:
     from stable_baselines3.common.callbacks import CallbackList
     from stable_baselines3.common.vec_env import VecNormalize
 
-__all__ = ["ALGOS", "TrainResult", "TrainedAgent", "agent_env", "load_hyperparams", "train_agent"]
+__all__ = ["TrainResult", "TrainedAgent", "agent_env", "train_agent"]
 
 
 def agent_env(

@@ -44,6 +44,8 @@ class PhysicsPredictor(Predictor):
     Attributes:
         wear_per_k_m3: Wear per event per unit K under this model, ``F_N E[s_slide] / H(20)``
             [m^3].
+        wear: This model's wear clock: one layer from a fresh pad to the atlas's failure
+            volume, worn at ``wear_per_k_m3`` per event per unit K.
         k_runs: Calibrated coefficient of each training run (set by ``fit``) [-].
         k_avg: Their mean, the model's coefficient [-].
         life_events: Predicted events to failure of every pad, ``N_fail``.
@@ -58,14 +60,11 @@ class PhysicsPredictor(Predictor):
         slide = float(atlas.expected("sliding_dist_m")[0])  # unworn brake, uniform conditions
         # Same units as the atlas's wear_per_k_m3: force [N] * 1e-6 / hardness [MPa] -> m^3.
         self.wear_per_k_m3 = model.brake.normal_force_n * 1e-6 * slide / h20
-        self.pad_volume_m3 = model.brake.pad_volume_m3
-        self.failure_volume = atlas.failure_volume
-        # The wear clock of this model: one layer from fresh to failure at constant wear.
         self.wear = WearModel.from_layer_wear(
             np.array([1.0]),
-            np.array([self.failure_volume]),
+            np.array([atlas.failure_volume]),
             np.array([self.wear_per_k_m3]),
-            self.pad_volume_m3,
+            model.brake.pad_volume_m3,
         )
         self.k_runs: pd.Series | None = None
         self.k_avg: float | None = None

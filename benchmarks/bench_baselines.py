@@ -20,9 +20,9 @@ import pandas as pd
 
 from baselines.mlp import MLPPredictor
 from baselines.physics import PhysicsPredictor
-from brake_env.cli.common import write_json
 from brake_env.data.datasets import make_dataset
 from brake_env.model.atlas import cached_atlas
+from brake_env.output import write_json
 from brake_env.prognostics.evaluation import evaluate
 from brake_env.prognostics.protocol import Oracle, predict_log
 

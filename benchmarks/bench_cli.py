@@ -20,7 +20,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from brake_env.cli.common import table, write_json
+from brake_env.output import table, write_json
 
 HEAVY = ("torch", "stable_baselines3")
 # The brakewear console script, with a report of the heavy modules it loaded on exit.

@@ -21,11 +21,11 @@ from pathlib import Path
 
 import numpy as np
 
-from brake_env.cli.common import table, write_json
 from brake_env.data.datasets import DatasetSpec, make_dataset, seeded_plan
 from brake_env.model.atlas import Atlas, AtlasSpec
 from brake_env.model.simulator import simulate_runs
 from brake_env.model.simulator_reference import simulate_run_reference
+from brake_env.output import table, write_json
 
 
 def timed(n: int, fn):

@@ -21,9 +21,9 @@ from pathlib import Path
 
 import numpy as np
 
-from brake_env.cli.common import table, write_json
 from brake_env.data.datasets import DatasetSpec, make_dataset
 from brake_env.model.atlas import cached_atlas
+from brake_env.output import table, write_json
 from brake_env.prognostics.protocol import EventBatch, Predictor, iter_runs
 from twin import DigitalTwin
 from twin.reference import ReferenceTwin

@@ -57,8 +57,7 @@ def main(
             "BrakeWear-v0",
             atlas=atlas,
             regime="mixed",
-            k_mean=wear.k_mean,
-            k_std=wear.k_std,
+            **wear.env_kwargs(),
             decision_interval=decision_interval,
             episode_events=episode_events,
         )

@@ -13,11 +13,10 @@ import sys
 
 import pandas as pd
 
-from brake_env.data.datasets import DatasetSpec, make_dataset
+from brake_env.data.datasets import DatasetSpec, find_logs, make_dataset
 from brake_env.data.schema import read_event_log
 from brake_env.model.atlas import cached_atlas
 from brake_env.model.regime import WearRegime
-from brake_env.prognostics.cli import find_logs
 from brake_env.prognostics.evaluation import evaluate
 from brake_env.prognostics.registry import make_predictor
 

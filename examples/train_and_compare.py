@@ -16,8 +16,10 @@ from typing import Any
 
 from agents.cli import compare_and_report
 from agents.compare import CompareConfig
-from agents.train import load_hyperparams
+from agents.hyperparameters import load_hyperparams
+from brake_env.model.atlas import cached_atlas
 from brake_env.model.regime import WearRegime
+from brake_env.model.wear import WearModel
 
 
 def main(
@@ -29,6 +31,7 @@ def main(
     predictors: tuple[str, ...] = ("none", "physics", "twin", "oracle"),
     agent: str = "twin",
 ) -> dict[str, Any]:
+    life = float(WearModel.from_atlas(cached_atlas()).life(k_mean))  # expected pad life
     config = CompareConfig(
         predictors=predictors,
         agent_predictors=(agent,),
@@ -37,7 +40,7 @@ def main(
         tune_seeds=2,
         eval_seeds=4,
         thresholds=(0, 1, 2, 4, 8, 16, 32, 64),
-        fixed_intervals=tuple(int(f * 2e-6 / k_mean * 1.18e5) for f in (0.4, 0.5, 0.6, 0.7, 0.8)),
+        fixed_intervals=tuple(int(f * life) for f in (0.4, 0.5, 0.6, 0.7, 0.8)),
         wear=WearRegime(k_mean, k_mean / 10),
     )
     # Train on a small pool of pads: each is run through the twin once (~3 s a pad).

@@ -1,1 +1,2 @@
-"""Sim-to-real gap: unmodelled-effect library, "truth" simulator and gap diagnosis (DESIGN 7)."""
+"""Sim-to-real gap: unmodelled-effect library, "truth" simulator and gap diagnosis (README
+"Sim-to-real gap")."""

@@ -1,4 +1,4 @@
-"""Thermal carry-over between events: the truth simulator's per-event recurrence (DESIGN 7).
+"""Thermal carry-over between events: the truth simulator's per-event recurrence.
 
 With a between-events effect, event k's start temperature depends on event k-1's peak
 temperature, so a run's events must be simulated in order. All runs advance together, in
@@ -26,13 +26,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 from brake_env.model.atlas import Atlas
-from brake_env.model.lookup import trilinear
 from brake_env.model.simulator import AlternatingRoutes, Trajectory, conditions_from_uniform
+from sim2real.effect_grid import GRID_FIELDS
 from sim2real.effects import Effect, SensorContext
 
 F64 = NDArray[np.float64]
 IDX = NDArray[np.intp]
-_FIELDS = ("temp_mean_c", "stop_dist_m", "wear_per_k_m3", "temp_peak_c", "stop_time_s")
+_FIELDS = GRID_FIELDS  # the fields of the response, in the effect grid's order
 _TEMP, _DIST, _WEAR, _PEAK, _TIME = range(len(_FIELDS))
 
 
@@ -67,7 +67,7 @@ class _Streams:
         )
         s, m, th = conditions_from_uniform(atlas, u)
         # Every event's grid cell, located once (all atlases share the grid).
-        cell, frac = atlas.lookup.locate(s, m, th, False)
+        cell, frac = atlas.lookup.locate(s, m, th, clip=False)
         return cls(s, m, th, cell, frac, gaps, caps)
 
 
@@ -144,10 +144,8 @@ def _block_table(atlases: list[Atlas], streams: _Streams, runs: _Runs, r: IDX, s
     frac = streams.frac[:, r[:, None], ev]
     out = []
     for a in atlases:
-        table = a.lookup.corner_table(_FIELDS)  # (layers, cells, fields, 8)
         lay = np.minimum(runs.layer[r], a.n_layers - 1)[:, None]
-        g = table.reshape(-1, *table.shape[2:])[lay * table.shape[1] + cell]
-        out.append(trilinear(g, frac))
+        out.append(a.lookup.interp_array(_FIELDS, lay, cell, frac))
     return np.stack(out)
 
 

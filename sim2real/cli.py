@@ -18,13 +18,14 @@ from typing import TYPE_CHECKING, Any
 
 from tqdm import tqdm
 
-from brake_env.cli.common import add_common_args, int_at_least, load_atlas, table, write_json
+from brake_env.cli.common import add_common_args, int_at_least, load_atlas
 from brake_env.cli.demo import DemoContext
 from brake_env.cli.simulate import cmd_simulate, dataset_spec
 from brake_env.data.datasets import SPLITS, DatasetSpec, write_dataset
 from brake_env.data.schema import read_event_log
 from brake_env.model.atlas import Atlas
 from brake_env.model.regime import WearRegime
+from brake_env.output import table, write_json
 from sim2real.effects import Effect
 from sim2real.library import describe_library, parse_effect, registry
 

@@ -1,4 +1,4 @@
-"""Settings of the sim-to-real diagnosis (DESIGN 7)."""
+"""Settings of the sim-to-real diagnosis (README "Sim-to-real gap")."""
 
 from __future__ import annotations
 

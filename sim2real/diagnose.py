@@ -1,6 +1,6 @@
-"""Sim-to-real gap diagnosis: localise, attribute, quantify (DESIGN 7).
+"""Sim-to-real gap diagnosis: localise, attribute, quantify (README "Sim-to-real gap").
 
-Works on any event log in the schema of DESIGN 4 (ground-truth columns are never used,
+Works on any event log in the README's event-log schema (ground-truth columns are never used,
 except the optional ``rul_events`` to score the twin's RUL in "quantify"). The steps are
 :mod:`sim2real.localise`, :mod:`sim2real.attribute` and :mod:`sim2real.quantify`; this
 module splits the runs, runs the steps in order and assembles the summary that goes to

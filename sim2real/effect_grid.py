@@ -1,4 +1,4 @@
-"""An effect's change of the nominal event response, on a coarse grid (DESIGN 7, localise).
+"""An effect's change of the nominal event response, on a coarse grid (localise).
 
 A replay model with an in-event effect answers through the nominal atlas plus the effect's
 change, evaluated by the physics on a coarse regular grid over (speed, mass, slope, volume)

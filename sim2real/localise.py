@@ -1,4 +1,4 @@
-"""Localise the gap: residuals of a replay, where they lie, and the structured gap (DESIGN 7).
+"""Localise the gap: residuals of a replay, where they lie, and the structured gap.
 
 Every event is replayed through a model at the pad state estimated from the log
 (:mod:`sim2real.replay`); residuals per channel are in units of sensor noise, tabulated by

@@ -1,6 +1,6 @@
 """An event log as arrays for replay: rows grouped by run, the operational time of each row.
 
-The pad state is not logged, so it is estimated from the log itself (DESIGN 7, localise):
+The pad state is not logged, so it is estimated from the log itself (localise):
 each event's relative wear severity rho (nominal wear per unit K at its conditions, over the
 log's mean) gives an *operational time* u = the sum of rho over the pad's earlier events
 (events missing from the log count at the mean severity). :mod:`sim2real.replay` turns u

@@ -1,5 +1,5 @@
 """Reports and figures of a diagnosis and of a validation: terminal text, Markdown, PNG
-(DESIGN 7 and 8)."""
+(README "Sim-to-real gap" and 8)."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
-from brake_env.cli.common import table, write_json
+from brake_env.output import table, write_json
 from sim2real.attribute import NONE
 from sim2real.diagnose import DiagnosisResult
 from sim2real.localise import CHANNELS, Residuals

@@ -1,4 +1,4 @@
-"""The twin's RUL error on held-out runs, without and with a fitted effect (DESIGN 7, quantify).
+"""The twin's RUL error on held-out runs, without and with a fitted effect (quantify).
 
 "The twin's model includes the effect" means: for an in-event effect, a twin built on an
 atlas made with the effect's physics; for a sensor or between-events effect, the nominal

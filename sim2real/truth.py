@@ -1,4 +1,4 @@
-"""The "truth" simulator: the nominal simulator with unmodelled effects attached (DESIGN 7).
+"""The "truth" simulator: the nominal simulator with unmodelled effects attached.
 
 "Real" logs for the sim-to-real diagnosis come from here:
 

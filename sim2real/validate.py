@@ -1,4 +1,4 @@
-"""Validation of the diagnosis on data whose effect is withheld from the model (DESIGN 7, validate).
+"""Validation of the diagnosis on data whose effect is withheld from the model.
 
 For each library effect at a few magnitudes inside its range, truth logs are simulated with
 the effect, the nominal model (which does not know it) diagnoses them, and the attribution

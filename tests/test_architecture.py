@@ -1,4 +1,5 @@
-"""The import rules of DESIGN 2: imports flow one way, heavy libraries only where used."""
+"""The layout rules of README "Architecture": imports flow one way, heavy libraries only
+where used, short functions and modules."""
 
 from __future__ import annotations
 
@@ -38,7 +39,7 @@ def imported_packages(package: str) -> dict[str, set[str]]:
 )
 def test_imports_flow_one_way(package: str, forbidden: set[str]) -> None:
     bad = {f: sorted(n & forbidden) for f, n in imported_packages(package).items() if n & forbidden}
-    assert not bad, f"{package} imports what DESIGN 2 forbids: {bad}"
+    assert not bad, f"{package} imports what README 'Architecture' forbids: {bad}"
 
 
 def test_torch_only_in_the_mlp_and_the_agents() -> None:
@@ -57,7 +58,7 @@ MAX_MODULE_LINES = 400
 
 
 def test_functions_and_modules_stay_short() -> None:
-    """Long functions are split into named steps; modules keep to one job (STYLE 5)."""
+    """Long functions are split into named steps; modules keep to one job."""
     long_functions, long_modules = [], []
     for path in sorted(p for pkg in PACKAGES for p in (ROOT / pkg).rglob("*.py")):
         src = path.read_text()
@@ -71,3 +72,25 @@ def test_functions_and_modules_stay_short() -> None:
                     long_functions.append(f"{rel}:{node.name} ({n} lines)")
     assert not long_functions, f"functions over {MAX_FUNCTION_LINES} lines: {long_functions}"
     assert not long_modules, f"modules over {MAX_MODULE_LINES} lines: {long_modules}"
+
+
+# brake_env's sub-packages in pipeline order; each imports only the ones before it (and the
+# shared helpers). A stage's own command module (its cli.py) may also use brake_env.cli.
+PIPELINE = ("model", "data", "prognostics", "env", "cli")
+HELPERS = {"_validate", "output"}
+
+
+def test_brake_env_stages_import_only_earlier_stages() -> None:
+    bad = []
+    for path in sorted((ROOT / "brake_env").rglob("*.py")):
+        parts = path.relative_to(ROOT / "brake_env").parts
+        if len(parts) == 1:
+            continue  # the package's own __init__ and helpers
+        stage = PIPELINE.index(parts[0])
+        allowed = {*PIPELINE[: stage + 1], *HELPERS} | ({"cli"} if parts[-1] == "cli.py" else set())
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.ImportFrom) and (node.module or "").startswith("brake_env."):
+                target = node.module.split(".")[1]  # type: ignore[union-attr]
+                if target not in allowed:
+                    bad.append(f"{path.relative_to(ROOT)} imports brake_env.{target}")
+    assert not bad, bad

@@ -28,7 +28,7 @@ import pandas as pd
 
 from brake_env.model.atlas import Atlas
 from brake_env.model.simulator import conditions_from_uniform
-from brake_env.model.wear import F64, WearModel
+from brake_env.model.wear import WearModel
 from brake_env.prognostics.protocol import MEASURED, EventBatch, Predictor, RULEstimate
 from twin.twin import FIT_COLUMNS
 
@@ -146,14 +146,12 @@ class ReferenceTwin(Predictor):
     def infer_volume(self, events: EventBatch) -> float:
         """Reverse inference: the layer minimising the squared temperature error, at the
         middle of its volume band."""
-        _, t_atlas, _ = self._layers(events)
+        t_atlas, _ = self.atlas.lookup.profile(
+            events.speed_kmh / 3.6, events.mass_kg, events.slope_rad
+        )
         sse = ((events.temp_c[:, None] - t_atlas) ** 2).sum(axis=0)
         j = int(np.argmin(sse))
         return float(0.5 * (self.atlas.volumes[j] + self.atlas.lower_edges[j]))
-
-    def _layers(self, events: EventBatch) -> tuple[int, F64, F64]:
-        t, dt = self.atlas.lookup.profile(events.speed_kmh / 3.6, events.mass_kg, events.slope_rad)
-        return len(events), t, dt
 
     def _update(self, events: EventBatch) -> RULEstimate:
         if self._k is None:

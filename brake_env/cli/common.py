@@ -1,13 +1,12 @@
 """What every ``brakewear`` command shares: common options, argument types, the atlas it runs
-on, tables and JSON output. Light on purpose: command modules import it at parse time."""
+on, the wear-regime options, the plug-ins. Light on purpose: command modules import it at
+parse time (tables and JSON files are in :mod:`brake_env.output`)."""
 
 from __future__ import annotations
 
 import argparse
-import json
 from collections.abc import Callable
 from importlib.metadata import entry_points
-from pathlib import Path
 from typing import Any
 
 from tqdm import tqdm
@@ -30,12 +29,6 @@ def int_at_least(lo: int) -> Callable[[str], int]:
     return parse
 
 
-def write_json(obj: Any, path: Path) -> Path:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(obj, indent=2, sort_keys=False) + "\n")
-    return path
-
-
 def load_atlas(args: argparse.Namespace, preset: str | None = None) -> Atlas:
     """The atlas file given by --atlas (its own parameters), else the preset's cached atlas."""
     if getattr(args, "atlas", None) and preset is None:
@@ -43,18 +36,6 @@ def load_atlas(args: argparse.Namespace, preset: str | None = None) -> Atlas:
     spec = AtlasSpec(model=BrakeModel.preset(preset or args.preset))
     with tqdm(desc="atlas layers", unit="layer", disable=args.quiet, delay=0.5) as bar:
         return cached_atlas(spec, args.cache_dir, getattr(args, "rebuild", False), bar.update)
-
-
-def table(rows: list[list[str]], markdown: bool = False) -> str:
-    """Rows (the first is the header) as right-aligned columns, or as a Markdown table."""
-    if markdown:
-        head = "| " + " | ".join(rows[0]) + " |"
-        rule = "|" + "|".join("---" for _ in rows[0]) + "|"
-        return "\n".join([head, rule, *("| " + " | ".join(r) + " |" for r in rows[1:])])
-    widths = [max(len(r[i]) for r in rows) for i in range(len(rows[0]))]
-    lines = ["  ".join(c.rjust(w) for c, w in zip(r, widths, strict=True)) for r in rows]
-    lines.insert(1, "  ".join("-" * w for w in widths))
-    return "\n".join(lines)
 
 
 def add_common_args(sp: argparse.ArgumentParser, out_default: str) -> None:
@@ -80,14 +61,17 @@ def plugins(group: str) -> list[Any]:
     return sorted(entry_points(group=group), key=lambda ep: ep.name)
 
 
-def add_wear_args(sp: argparse.ArgumentParser, k_mean: float = 2e-6) -> None:
+def add_wear_args(sp: argparse.ArgumentParser, k_mean: float = WearRegime.k_mean) -> None:
     """Options of the wear regime (:class:`~brake_env.model.regime.WearRegime`)."""
     sp.add_argument("--k-mean", type=float, default=k_mean, help="mean Archard coefficient")
     sp.add_argument(
         "--k-std", type=float, default=None, help="std of the coefficient (default: k-mean / 10)"
     )
     sp.add_argument(
-        "--ood-shift-sigma", type=float, default=6.0, help="OOD mean shift in units of --k-std"
+        "--ood-shift-sigma",
+        type=float,
+        default=WearRegime.ood_shift_sigma,
+        help="OOD mean shift in units of --k-std",
     )
 
 

@@ -19,7 +19,8 @@ def build_parser() -> argparse.ArgumentParser:
     demo.register(sub)
     evaluate.register(sub)
     # Commands of the downstream packages (twin, baselines, agents, sim2real) register
-    # themselves as plug-ins, so brake_env never imports them (DESIGN 2: imports flow one way).
+    # themselves as plug-ins, so brake_env never imports them (imports flow one way: README
+    # "Architecture").
     for ep in plugins("brakewear.commands"):
         ep.load()(sub)
     return p

@@ -14,12 +14,11 @@ from brake_env.cli.common import (
     add_wear_args,
     int_at_least,
     load_atlas,
-    table,
     wear_regime,
-    write_json,
 )
 from brake_env.data.datasets import SPLITS, DatasetSpec, make_dataset, write_dataset
 from brake_env.data.summary import atlas_summary, dataset_summary
+from brake_env.output import table, write_json
 
 FORMATS = ("parquet", "csv")
 
@@ -67,7 +66,7 @@ def cmd_atlas(args: argparse.Namespace) -> dict[str, Any]:
     info["preset"] = args.preset
     write_json(info, out / "atlas.json")
     other = "cold-start" if args.preset == "hot-duty" else "hot-duty"
-    # The calibration figure sets the other preset beside this one (DESIGN 3's contrast).
+    # The calibration figure sets the other preset beside this one (README "The model"'s contrast).
     plot_calibration(atlas, out / "calibration.png", compare={other: load_atlas(args, other)})
     print(
         table(

@@ -3,7 +3,7 @@
 Training and in-distribution (ID) test pads draw K ~ N(mu_K, sigma_K^2); the
 out-of-distribution (OOD) pads come from means shifted by -6 sigma (slow wear) and +6 sigma
 (fast wear). Each run is simulated to failure through the atlas, sensor noise is added, and
-the runs are written as event logs (DESIGN 4) with ground-truth columns.
+the runs are written as event logs (README "Event-log schema") with ground-truth columns.
 """
 
 from __future__ import annotations
@@ -240,3 +240,23 @@ def write_dataset(
             if progress:
                 progress(f"{split}.{fmt}")
     return paths
+
+
+def find_logs(data_dir: str | Path) -> dict[str, Path]:
+    """``{split}.parquet`` (else ``.csv``) of every split in ``data_dir``."""
+    d = Path(data_dir)
+    if not d.is_dir():
+        raise FileNotFoundError(f"data directory {d}: no such directory")
+    found, missing = {}, []
+    for split in SPLITS:
+        path = next((p for p in (d / f"{split}.parquet", d / f"{split}.csv") if p.is_file()), None)
+        if path is None:
+            missing.append(f"{split}.parquet")
+        else:
+            found[split] = path
+    if missing:
+        raise FileNotFoundError(
+            f"data directory {d}: missing {', '.join(missing)} (or .csv);"
+            " write them with brakewear simulate"
+        )
+    return found

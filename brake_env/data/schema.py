@@ -1,4 +1,4 @@
-"""The event-log schema (DESIGN 4), a public contract for CSV and Parquet files.
+"""The event-log schema (README "Event-log schema"), a public contract for CSV and Parquet files.
 
 One row per braking event. Required: ``run_id`` (str), ``event`` (int, 0-based, strictly
 increasing within a run) and the measured channels. Optional: event time, ambient

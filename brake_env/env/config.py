@@ -127,9 +127,9 @@ class EnvConfig:
     episode_events: int = 500_000
     regime: Literal["id", "ood", "mixed"] = "id"
     ood_share: float = 0.5
-    k_mean: float = 2e-6
-    k_std: float = 2e-7
-    ood_shift_sigma: float = 6.0
+    k_mean: float = WearRegime.k_mean
+    k_std: float = WearRegime.k_std
+    ood_shift_sigma: float = WearRegime.ood_shift_sigma
     costs: CostWeights = field(default_factory=CostWeights)
     noise: SensorNoise = field(default_factory=SensorNoise)
     preset: str = "hot-duty"

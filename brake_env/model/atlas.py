@@ -1,4 +1,4 @@
-"""The brake performance atlas: one lookup map per 1% of pad volume (paper 2.1.2, DESIGN 4).
+"""The brake performance atlas: one lookup map per 1% of pad volume (paper 2.1.2).
 
 Each layer holds the physics of ``brake_env.model.physics`` evaluated on a regular grid over speed,
 mass and slope. Queries interpolate trilinearly inside a layer; across layers they either use
@@ -175,9 +175,7 @@ class Atlas:
     @property
     def failure_mode(self) -> str:
         """``cannot-stop`` (the severe event fails) or ``worn-out`` (the wear-out limit)."""
-        if self.critical_volume >= self.spec.model.brake.min_volume_frac:
-            return "cannot-stop"
-        return "worn-out"
+        return "cannot-stop" if self.failure_volume == self.critical_volume else "worn-out"
 
     # ---------------------------------------------------------------- persistence
     @property
@@ -313,16 +311,23 @@ class Atlas:
         b = self.lookup.interp(tuple(fields), j1, cell, frac)
         return {f: (1.0 - w1) * a[f] + w1 * b[f] for f in fields}
 
-    def expected(self, field_name: str) -> F64:
-        """Mean of a field per layer under uniform operating conditions over the envelope.
+    def expected(self, field_name: str, power: int = 1) -> F64:
+        """Mean of a field (or of its ``power``) per layer under uniform operating conditions
+        over the envelope; computed once per atlas, read-only.
 
-        Exact for the trilinear interpolant: the uniform mean of a piecewise-trilinear
-        function is the trapezoid-weighted mean of its node values.
+        Exact for the trilinear interpolant (``power=1``): the uniform mean of a
+        piecewise-trilinear function is the trapezoid-weighted mean of its node values.
+        With ``power=2`` it is the same weighting of the squared node values (the spread of
+        the field over the envelope, to within the interpolant's curvature).
         """
-        w = np.einsum(
-            "i,j,k->ijk", *(trapezoid_weights(n) for n in self.fields[field_name].shape[1:])
-        )
-        return np.einsum("lijk,ijk->l", self.fields[field_name], w)
+        cache = self.__dict__.setdefault("_expected", {})
+        if (field_name, power) not in cache:
+            f = self.fields[field_name]
+            w = np.einsum("i,j,k->ijk", *(trapezoid_weights(n) for n in f.shape[1:]))
+            mean = np.einsum("lijk,ijk->l", f if power == 1 else f**power, w)
+            mean.flags.writeable = False  # shared by every caller
+            cache[field_name, power] = mean
+        return cache[field_name, power]
 
     # ---------------------------------------------------------------- internals
     def _check_volume(self, v: F64) -> None:

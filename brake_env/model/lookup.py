@@ -79,13 +79,19 @@ class GridLookup:
         self, names: tuple[str, ...], layer: NDArray[np.intp], cell: NDArray[np.intp], f: F64
     ) -> dict[str, F64]:
         """Fields at located points, each at its own layer (inputs broadcast together)."""
+        out = self.interp_array(names, layer, cell, f)
+        return {n: out[..., i] for i, n in enumerate(names)}
+
+    def interp_array(
+        self, names: tuple[str, ...], layer: NDArray[np.intp], cell: NDArray[np.intp], f: F64
+    ) -> F64:
+        """As :meth:`interp`, the fields stacked on a last axis: shape (..., len(names))."""
         table = self.corner_table(names)
         if layer.ndim == 0 or np.all(layer == layer.flat[0]):
             g = table[int(layer.flat[0])][cell]  # one layer: gather from a cache-sized slice
         else:
             g = table.reshape(-1, *table.shape[2:])[layer * table.shape[1] + cell]
-        out = trilinear(g, f)
-        return {n: out[..., i] for i, n in enumerate(names)}
+        return trilinear(g, f)
 
     # ---------------------------------------------------------------- every layer per point
     def profile(
@@ -164,6 +170,8 @@ class RegularGridInterp:
         lead = pts.shape[:-1]
         x = pts.reshape(-1, self.ndim)
         vals = self.values if cols is None else self.values[:, list(cols)]
+        # Divides by the step where GridLookup.locate multiplies by its inverse: each keeps
+        # the rounding its callers' outputs were produced with (their bytes are tested).
         u = np.clip((x - self.lo) / self.step, 0.0, self.n - 1.0)
         r = np.rint(u)
         u = np.where(np.abs(u - r) < 1e-9, r, u)

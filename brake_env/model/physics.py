@@ -1,4 +1,4 @@
-"""Physics of one braking event, vectorised over a batch of events (paper 2.1.1, DESIGN 3).
+"""Physics of one braking event, vectorised over a batch of events (paper 2.1.1).
 
 A vehicle of mass m at speed v0 on a downhill slope theta applies a fixed line pressure p on
 every braked wheel. Per brake:
@@ -267,6 +267,8 @@ def critical_volume(
     even an almost fully worn pad stops it, and raises if a fresh pad cannot. ``modifier``
     as in :func:`simulate_events`.
     """
+    if batch != 1 and batch < 3:  # 2 volumes per round are the bracket itself: no progress
+        raise ValueError(f"critical_volume: batch must be 1 or >= 3, got {batch}")
     model = model or BrakeModel()
     v, m, th = model.envelope.severe_event
     lo, hi = 1e-4, 1.0  # lo: may fail, hi: must stop

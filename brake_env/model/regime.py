@@ -48,6 +48,10 @@ class WearRegime:
         sign = {"id": 0.0, "ood-slow": -1.0, "ood-fast": 1.0}[label]
         return self.k_mean + sign * self.ood_shift_sigma * self.k_std
 
+    def env_kwargs(self) -> dict[str, float]:
+        """The regime as BrakeWear-v0's flat keyword arguments (``gym.make``, RL Zoo)."""
+        return {"k_mean": self.k_mean, "k_std": self.k_std, "ood_shift_sigma": self.ood_shift_sigma}
+
     def check_ood(self) -> None:
         """Raise unless slow-OOD pads can be drawn without a visible truncation at K = 0."""
         if self.mean("ood-slow") - MIN_SIGMAS_ABOVE_ZERO * self.k_std <= 0:

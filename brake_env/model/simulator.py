@@ -1,4 +1,4 @@
-"""Coupled run-to-failure wear simulation through the atlas (paper Steps 3-5, DESIGN 4).
+"""Coupled run-to-failure wear simulation through the atlas (paper Steps 3-5; README "The model").
 
 For every braking event, operating conditions are drawn uniformly over the envelope, the
 active atlas layer gives the response, and the pad loses ``K * wear_per_k``. When the volume
@@ -226,6 +226,7 @@ class _Runs:
         ]
         self.outs = [RunColumns(int(c)) for c in capacity]
         self.pos = np.zeros(ks.size, dtype=np.int64)
+        self.mean_wear = atlas.expected("wear_per_k_m3")
         self.vol = np.ones(ks.size)
 
     def cross_layer(self, j: int, interpolate: bool) -> None:
@@ -239,7 +240,7 @@ class _Runs:
         # Runs of similar block size go together so that slow runs do not pad fast ones, in
         # batches of ~16k events: arrays that fit in cache are several times faster.
         pad_v = atlas.spec.model.brake.pad_volume_m3
-        mean_w = atlas.expected("wear_per_k_m3")[j]
+        mean_w = self.mean_wear[j]
         n_exp = np.maximum(vol[alive] - lower, 0.0) * pad_v / (ks[alive] * mean_w)
         blocks = np.ceil(1.15 * n_exp + 6.0 * np.sqrt(n_exp) + 16).astype(np.int64)
         groups = np.ceil(np.log(blocks) / np.log(1.25)).astype(np.int64)

@@ -22,7 +22,6 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from brake_env.model.atlas import Atlas
-from brake_env.model.lookup import trapezoid_weights
 
 F64 = NDArray[np.float64]
 
@@ -57,7 +56,11 @@ class WearModel:
         """The clock of layers ``tops[j] -> bottoms[j]`` worn at mean ``wear_per_k_m3[j]``
         per event per unit K, the squared coefficient of variation ``cv2[j]`` of that wear
         (0 if not given) setting the spread of the life."""
-        work_per_layer = (tops - bottoms) * pad_volume_m3 / wear_per_k_m3
+        tops, bottoms, wear = (
+            np.asarray(x, dtype=np.float64) for x in (tops, bottoms, wear_per_k_m3)
+        )
+        _check_layers(tops, bottoms, wear, pad_volume_m3)
+        work_per_layer = (tops - bottoms) * pad_volume_m3 / wear
         # The events spent in a layer vary by ~ sqrt(n_j) * cv_j around their mean n_j.
         var = 0.0 if cv2 is None else float((work_per_layer * cv2).sum())
         return cls(
@@ -71,8 +74,7 @@ class WearModel:
     def from_atlas(cls, atlas: Atlas) -> WearModel:
         """The clock under uniform operating conditions over the atlas's envelope."""
         w = atlas.expected("wear_per_k_m3")
-        w2 = _uniform_mean(atlas.fields["wear_per_k_m3"] ** 2)
-        cv2 = np.maximum(w2 / w**2 - 1.0, 0.0)
+        cv2 = np.maximum(atlas.expected("wear_per_k_m3", power=2) / w**2 - 1.0, 0.0)
         pad_v = atlas.spec.model.brake.pad_volume_m3
         return cls.from_layer_wear(atlas.volumes, atlas.lower_edges, w, pad_v, cv2)
 
@@ -132,7 +134,19 @@ class WearModel:
         return (self.life_work - self.work_at_volume(volume_frac)) / k
 
 
-def _uniform_mean(field: F64) -> F64:
-    """Trapezoid-weighted mean over the grid axes of a (layers, ns, nm, nt) array."""
-    ws = [trapezoid_weights(n) for n in field.shape[1:]]
-    return np.einsum("lijk,i,j,k->l", field, *ws)
+def _check_layers(tops: F64, bottoms: F64, wear: F64, pad_volume_m3: float) -> None:
+    """Layers must tile the volume downwards from 1, each worn at a positive rate."""
+    if not (tops.ndim == 1 and tops.shape == bottoms.shape == wear.shape and tops.size):
+        raise ValueError(
+            "WearModel: tops, bottoms and wear_per_k_m3 must be 1-D arrays of one length,"
+            f" got shapes {tops.shape}, {bottoms.shape}, {wear.shape}"
+        )
+    if tops[0] != 1.0 or np.any(bottoms >= tops) or np.any(tops[1:] != bottoms[:-1]):
+        raise ValueError(
+            "WearModel: layers must run down from volume 1.0, each top above its bottom and"
+            " equal to the previous bottom"
+        )
+    if not (np.all(np.isfinite(wear)) and np.all(wear > 0)):
+        raise ValueError("WearModel: wear_per_k_m3 must be finite and > 0 in every layer")
+    if not pad_volume_m3 > 0:
+        raise ValueError(f"WearModel: pad_volume_m3 must be > 0, got {pad_volume_m3}")

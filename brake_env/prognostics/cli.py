@@ -19,11 +19,12 @@ from typing import Any
 import pandas as pd
 from tqdm import tqdm
 
-from brake_env.cli.common import add_common_args, int_at_least, load_atlas, write_json
+from brake_env.cli.common import add_common_args, int_at_least, load_atlas
 from brake_env.cli.demo import DemoContext
-from brake_env.data.datasets import SPLITS
+from brake_env.data.datasets import find_logs
 from brake_env.data.schema import read_event_log
 from brake_env.model.atlas import Atlas
+from brake_env.output import write_json
 from brake_env.prognostics.evaluation import Evaluation, EvaluationConfig, evaluate
 from brake_env.prognostics.protocol import Predictor
 from brake_env.prognostics.registry import make_predictor, predictor_names
@@ -72,26 +73,6 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
         "--mlp-epochs", type=int_at_least(1), default=None, help="MLP epochs (default: its config)"
     )
     e.set_defaults(func=cmd_evaluate)
-
-
-def find_logs(data_dir: str | Path) -> dict[str, Path]:
-    """``{split}.parquet`` (else ``.csv``) of every split in ``data_dir``."""
-    d = Path(data_dir)
-    if not d.is_dir():
-        raise FileNotFoundError(f"--data {d}: no such directory")
-    found, missing = {}, []
-    for split in SPLITS:
-        path = next((p for p in (d / f"{split}.parquet", d / f"{split}.csv") if p.is_file()), None)
-        if path is None:
-            missing.append(f"{split}.parquet")
-        else:
-            found[split] = path
-    if missing:
-        raise FileNotFoundError(
-            f"--data {d}: missing {', '.join(missing)} (or .csv);"
-            " write them with brakewear simulate"
-        )
-    return found
 
 
 def _fit_all(

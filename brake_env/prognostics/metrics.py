@@ -1,4 +1,4 @@
-"""Prognostic metrics of one run: RUL error, state-estimate errors, convergence (DESIGN 5).
+"""Prognostic metrics of one run: RUL error, state-estimate errors, convergence (paper 2.5).
 
 Every function takes the arrays of ONE run (one value per braking event, oldest first) and
 returns plain floats, so the harness (:mod:`brake_env.prognostics.evaluation`) can average them over

@@ -1,4 +1,4 @@
-"""The predictor protocol (DESIGN 5) and the two predictors that need no model.
+"""The predictor protocol (README "Prognostics") and the two predictors that need no model.
 
 Every RUL predictor is fitted on training runs, reset when a pad is installed, and updated
 with a batch of braking events of that pad. ``update`` returns one estimate *per event of
@@ -7,8 +7,8 @@ the environment (batches of ``decision_interval`` events) or over a whole logged
 (one batch), with the same code and the same numbers.
 
 Events travel as an :class:`EventBatch`: numpy arrays named like the event-log columns
-(DESIGN 4), so a predictor written against logs runs unchanged online. Ground-truth columns
-are present in simulated data and used only by :class:`Oracle`.
+(README "Event-log schema"), so a predictor written against logs runs unchanged online.
+Ground-truth columns are present in simulated data and used only by :class:`Oracle`.
 """
 
 from __future__ import annotations
@@ -149,7 +149,7 @@ class RULEstimate:
 
 @runtime_checkable
 class RULPredictor(Protocol):
-    """Anything that estimates RUL from braking events (DESIGN 5)."""
+    """Anything that estimates RUL from braking events (README "Prognostics")."""
 
     @property
     def name(self) -> str: ...

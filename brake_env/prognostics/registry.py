@@ -5,12 +5,13 @@ A downstream package (``baselines``, ``twin``, or a user's own) declares
 ``name = "module:factory"`` in that group, where ``factory(atlas, seed) -> Predictor``
 returns an unfitted predictor. Only the names are read until a predictor is asked for, so
 listing them imports neither torch nor the twin, and ``brake_env`` never imports its
-downstream packages (DESIGN 2).
+downstream packages (README "Architecture").
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
+from functools import cache
 from importlib.metadata import entry_points
 
 from brake_env.model.atlas import Atlas
@@ -25,6 +26,7 @@ _BUILTIN: dict[str, Factory] = {
 }
 
 
+@cache
 def _plugins() -> dict[str, object]:
     return {ep.name: ep for ep in entry_points(group=GROUP)}
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from brake_env.cli.common import table
+from brake_env.output import table
 
 
 def _num(x: Any, fmt: str) -> str:

@@ -44,3 +44,13 @@ def test_train_and_compare_take_the_wear_regime_options() -> None:
         args = parser.parse_args([command, "--k-mean", "1e-5", "--ood-shift-sigma", "4"])
         wear = wear_regime(args)
         assert (wear.k_mean, wear.k_std, wear.ood_shift_sigma) == (1e-5, 1e-5 / 10, 4.0)
+
+
+def test_brakewear_atlas_imports_neither_torch_nor_sb3(tmp_path) -> None:
+    code = (
+        "import sys; from brake_env.cli.main import main;"
+        f" rc = main(['atlas', '--out', {str(tmp_path)!r}, '--quiet']);"
+        " print(rc, 'torch' in sys.modules, 'stable_baselines3' in sys.modules)"
+    )
+    assert _run(code)[-3:] == ["0", "False", "False"]  # after the atlas table
+    assert (tmp_path / "atlas.npz").is_file()

@@ -1,4 +1,4 @@
-"""examples/rl_rule_policy.py runs and does what it says (STYLE: every example is run by a
+"""examples/rl_rule_policy.py runs and does what it says (every example is run by a
 test with the Agg backend)."""
 
 from __future__ import annotations

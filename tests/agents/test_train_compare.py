@@ -11,7 +11,8 @@ import torch
 
 from agents.cli import compare_and_report
 from agents.compare import CompareConfig
-from agents.train import TrainedAgent, agent_env, load_hyperparams, train_agent
+from agents.hyperparameters import load_hyperparams
+from agents.train import TrainedAgent, agent_env, train_agent
 from brake_env.model.regime import WearRegime
 from brake_env.prognostics.protocol import NoPrognostics, Oracle
 

@@ -131,7 +131,7 @@ def test_wear_accelerates_towards_end_of_life_monte_carlo() -> None:
 
 
 def test_cold_start_preset_shows_why_the_default_is_hot(atlas) -> None:
-    # DESIGN 3: with cold starts mu*H rises with temperature, so wear per event falls.
+    # README "The model": with cold starts mu*H rises with temperature, so wear per event falls.
     from brake_env.model.atlas import Atlas, AtlasSpec
 
     cold = Atlas.build(
@@ -172,3 +172,12 @@ def test_parameter_validation_names_the_field() -> None:
 def test_model_dict_round_trip() -> None:
     model = BrakeModel.preset("cold-start")
     assert BrakeModel.from_dict(model.to_dict()) == model
+
+
+def test_batched_critical_volume_agrees_with_bisection() -> None:
+    exact = critical_volume(MODEL)
+    for batch, tol in ((48, 1e-5), (5, 1e-6)):
+        v = critical_volume(MODEL, tol=tol, batch=batch)
+        assert abs(v - exact) <= tol
+    with pytest.raises(ValueError, match="batch must be 1 or >= 3"):
+        critical_volume(MODEL, batch=2)  # the bracket itself: it would never shrink

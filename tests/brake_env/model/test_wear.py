@@ -52,3 +52,15 @@ def test_bad_volume_is_rejected(atlas: Atlas) -> None:
         wm.work_at_volume(0.01)
     with pytest.raises(ValueError, match="n_events > 0"):
         wm.identify_k(0.5, 0)
+
+
+def test_layers_that_do_not_tile_the_volume_are_rejected() -> None:
+    one = np.array([2e-3])
+    with pytest.raises(ValueError, match="run down from volume"):
+        WearModel.from_layer_wear(np.array([0.9]), np.array([0.8]), one, 1e-4)
+    with pytest.raises(ValueError, match="run down from volume"):  # a gap between layers
+        WearModel.from_layer_wear(np.array([1.0, 0.85]), np.array([0.9, 0.8]), one.repeat(2), 1e-4)
+    with pytest.raises(ValueError, match="wear_per_k_m3 must be finite and > 0"):
+        WearModel.from_layer_wear(np.array([1.0]), np.array([0.8]), np.array([0.0]), 1e-4)
+    with pytest.raises(ValueError, match="1-D arrays of one length"):
+        WearModel.from_layer_wear(np.array([1.0]), np.array([0.8]), one.repeat(2), 1e-4)
