@@ -45,9 +45,8 @@ class CostReport:
             and all ``ood`` pads (NaN where no such pad was taken off).
         mean_unused_life_frac: Mean share of its life a pad still had when taken off (0 for
             a failure) [-].
-        retired_rul_events: Events of life left at each removal (0 for failures).
-        retired_life_events: Life of each pad taken off, in the same order.
-        retired_regimes: Regime label of each pad taken off, in the same order.
+        retired: Each pad taken off, in order (life left, life, regime; life left 0 for a
+            failure).
         episode_failures, episode_planned: Failures and planned replacements per episode,
             so the cost under other weights follows without running again.
         ratio_to_oracle: ``cost`` over the oracle policy's cost on the same seeds, or None.
@@ -67,9 +66,7 @@ class CostReport:
     failures_per_100_pads: float
     failures_per_100_pads_by_regime: dict[str, float]
     mean_unused_life_frac: float
-    retired_rul_events: tuple[int, ...] = field(repr=False)
-    retired_life_events: tuple[int, ...] = field(repr=False)
-    retired_regimes: tuple[str, ...] = field(repr=False)
+    retired: tuple[RetiredPad, ...] = field(repr=False)
     episode_failures: tuple[int, ...] = field(repr=False)
     episode_planned: tuple[int, ...] = field(repr=False)
     episode_events: tuple[int, ...] = field(repr=False)
@@ -93,7 +90,7 @@ class CostReport:
 
     def to_dict(self) -> dict[str, Any]:
         d = asdict(self)
-        for k in ("retired_rul_events", "retired_life_events", "retired_regimes", "episode_events"):
+        for k in ("retired", "episode_events"):
             d.pop(k)
         d["cost_per_1000_events_ci95"] = self.interval()
         if self.episode_ratio_to_oracle is not None:
@@ -201,9 +198,7 @@ def _report(
         failures_per_100_pads=100.0 * sum(ep_fail) / len(retired) if retired else float("nan"),
         failures_per_100_pads_by_regime=by_regime,
         mean_unused_life_frac=float((left / life).mean()) if retired else float("nan"),
-        retired_rul_events=tuple(int(x) for x in left),
-        retired_life_events=tuple(int(x) for x in life),
-        retired_regimes=tuple(str(x) for x in label),
+        retired=tuple(retired),
         episode_failures=ep_fail,
         episode_planned=ep_plan,
         episode_events=ep_events,
@@ -215,11 +210,7 @@ def merge_reports(reports: Sequence[CostReport]) -> CostReport:
     """One report over the episodes of several (the same policy on other seeds)."""
     if not reports:
         raise ValueError("merge_reports: nothing to merge")
-    retired = [
-        RetiredPad(*pad)
-        for r in reports
-        for pad in zip(r.retired_rul_events, r.retired_life_events, r.retired_regimes, strict=True)
-    ]
+    retired = [pad for r in reports for pad in r.retired]
     return _report(
         reports[0].name,
         tuple(s for r in reports for s in r.seeds),

@@ -51,7 +51,7 @@ def plot_replacement_timing(
     ax = fig.add_subplot()
     rng = np.random.default_rng(0)  # jitter only
     for i, (_, r) in enumerate(items):
-        left = np.asarray(r.retired_rul_events, dtype=float)
+        left = np.array([pad.life_left for pad in r.retired], dtype=float)
         jitter = rng.uniform(-0.25, 0.25, left.size)
         ok = left > 0
         ax.scatter(left[ok], i + jitter[ok], s=8, alpha=0.6, color="#2b8cbe")

@@ -49,7 +49,7 @@ def main() -> dict[str, float]:
 
     spec = DatasetSpec()
     plan, per_run = seeded_plan(spec, seed=0)  # the runs of `brakewear simulate --seed 0`
-    ks = [k for _, _, k in plan]
+    ks = [p.wear_coeff for p in plan]
     seeds = [cond for cond, _ in per_run]
     sim_first, sim_s, trajs = timed(args.repeats, lambda: simulate_runs(atlas, ks, seeds))
     n_events = sum(t.n_events for t in trajs)

@@ -21,8 +21,8 @@ def main(out_dir: str = "out/example", k_mean: float = 2e-6, runs: int = 2) -> d
         n_train=runs, n_id=runs, n_ood_slow=1, n_ood_fast=1, wear=WearRegime(k_mean, k_mean / 10)
     )
     ds = make_dataset(atlas, spec, seed=0)
-    lives = {run_id: t.n_events for _, run_id, t in ds.runs}
-    for run_id, t in ((r, t) for _, r, t in ds.runs):
+    lives = {r.run_id: r.trajectory.n_events for r in ds.runs}
+    for run_id, t in ((r.run_id, r.trajectory) for r in ds.runs):
         fresh = t.wear_frac[t.layer == 0].mean()
         end = t.wear_frac[t.layer == t.layer[-1]].mean()
         print(

@@ -122,7 +122,7 @@ def simulate_truth(
         atlas_spec,
         kinds,
         spec,
-        [k for _, _, k in plan],
+        [p.wear_coeff for p in plan],
         [c for c, _ in per_run],
         time_rngs,
         progress,
@@ -133,8 +133,8 @@ def simulate_truth(
             for t, c in zip(trajs, ctxs, strict=True)
         ]
     runs = [
-        _TruthRun(split, rid, t, tm[: t.n_events], np.random.default_rng(noise_seed))
-        for (split, rid, _), t, tm, (_, noise_seed) in zip(plan, trajs, times, per_run, strict=True)
+        _TruthRun(p.split, p.run_id, t, tm[: t.n_events], np.random.default_rng(noise_seed))
+        for p, t, tm, (_, noise_seed) in zip(plan, trajs, times, per_run, strict=True)
     ]
     return {split: _split_log(runs, split, spec) for split in ("train", "id", "ood")}
 

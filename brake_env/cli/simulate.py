@@ -128,8 +128,8 @@ def cmd_simulate(args: argparse.Namespace) -> dict[str, Any]:
     write_json(summary, out / "summary.json")
     if ds.runs:
         plot_volume_trajectories(ds.runs, out / "figures" / "volume_trajectories.png")
-        split, run_id, _ = next((r for r in ds.runs if r[1].startswith("ood-fast")), ds.runs[0])
-        plot_trace(ds.logs[split], run_id, out / "figures" / f"trace_{run_id}.png")
+        r = next((r for r in ds.runs if r.run_id.startswith("ood-fast")), ds.runs[0])
+        plot_trace(ds.logs[r.split], r.run_id, out / "figures" / f"trace_{r.run_id}.png")
     rows = [["split", "runs", "life mean", "life std", "life min", "life max"]]
     for split, life in summary["life_events"].items():
         rows.append(

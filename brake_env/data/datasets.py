@@ -31,6 +31,36 @@ SPLITS = ("train", "id", "ood")
 
 
 @dataclass(frozen=True)
+class PlannedRun:
+    """A run of a dataset before it is simulated.
+
+    Attributes:
+        split: ``train``, ``id`` or ``ood``.
+        run_id: Its name in the logs (``train-00``, ``ood-slow-03``...).
+        wear_coeff: Its Archard coefficient K [-].
+    """
+
+    split: str
+    run_id: str
+    wear_coeff: float
+
+
+@dataclass(frozen=True, eq=False)
+class SimulatedRun:
+    """A run of a dataset simulated to failure.
+
+    Attributes:
+        split: ``train``, ``id`` or ``ood``.
+        run_id: Its name in the logs.
+        trajectory: Its ground truth, event by event.
+    """
+
+    split: str
+    run_id: str
+    trajectory: Trajectory
+
+
+@dataclass(frozen=True)
 class DatasetSpec:
     """How many runs of which wear coefficient (paper 2.1.6).
 
@@ -76,8 +106,8 @@ class DatasetSpec:
         n = self.route_block_events
         return AlternatingRoutes(n) if n else None
 
-    def plan(self, rng: np.random.Generator) -> list[tuple[str, str, float]]:
-        """(split, run_id, K) of every run, K drawn from ``rng``."""
+    def plan(self, rng: np.random.Generator) -> list[PlannedRun]:
+        """Every run with its K drawn from ``rng``, in the order train, ID, slow and fast OOD."""
         draws: list[tuple[str, str, Label, int]] = [
             ("train", "train", "id", self.n_train),
             ("id", "id", "id", self.n_id),
@@ -87,7 +117,7 @@ class DatasetSpec:
         runs = []
         for split, prefix, label, n in draws:
             for i, k in enumerate(self.wear.draw(rng, label, n)):
-                runs.append((split, f"{prefix}-{i:02d}", float(k)))
+                runs.append(PlannedRun(split, f"{prefix}-{i:02d}", float(k)))
         return runs
 
 
@@ -96,14 +126,14 @@ class Dataset:
     """Simulated runs, ground truth and logs.
 
     Attributes:
-        runs: (split, run_id, trajectory) per run, in plan order.
+        runs: Every run simulated, in plan order.
         logs: Split name -> event log (noisy channels plus ground truth).
         simulate_seconds: Wall time of the coupled simulation.
         interpolate_layers: Whether adjacent layers were blended.
         route_block_events: The alternating-route block length (0: independent draws).
     """
 
-    runs: list[tuple[str, str, Trajectory]]
+    runs: list[SimulatedRun]
     logs: dict[str, pd.DataFrame]
     simulate_seconds: float
     interpolate_layers: bool = False
@@ -179,7 +209,7 @@ def event_logs(
 
 def seeded_plan(
     spec: DatasetSpec, seed: int
-) -> tuple[list[tuple[str, str, float]], list[list[np.random.SeedSequence]]]:
+) -> tuple[list[PlannedRun], list[list[np.random.SeedSequence]]]:
     """The runs of ``spec`` with their K, and per run its (conditions, noise) seeds.
 
     ``SeedSequence(seed)`` spawns one stream for the K draws and one child per run, which
@@ -205,19 +235,19 @@ def make_dataset(
     t0 = time.perf_counter()
     trajs = simulate_runs(
         atlas,
-        [k for _, _, k in plan],
+        [p.wear_coeff for p in plan],
         [c for c, _ in per_run],
         progress,
         spec.interpolate_layers,
         spec.duty,
     )
     sim_s = time.perf_counter() - t0
-    runs = [(split, rid, t) for (split, rid, _), t in zip(plan, trajs, strict=True)]
+    runs = [SimulatedRun(p.split, p.run_id, t) for p, t in zip(plan, trajs, strict=True)]
     logs = {}
     for split in SPLITS:
-        idx = [i for i, r in enumerate(runs) if r[0] == split]
+        idx = [i for i, r in enumerate(runs) if r.split == split]
         logs[split] = event_logs(
-            [(runs[i][1], runs[i][2]) for i in idx],
+            [(runs[i].run_id, runs[i].trajectory) for i in idx],
             spec.noise,
             [np.random.default_rng(per_run[i][1]) for i in idx],
         )

@@ -9,10 +9,10 @@ import pandas as pd
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure  # no pyplot: no global state, no display backend
 
+from brake_env.data.datasets import SimulatedRun
 from brake_env.model.atlas import Atlas
 from brake_env.model.materials import friction, hardness_mpa
 from brake_env.model.physics import simulate_events
-from brake_env.model.simulator import Trajectory
 
 SPLIT_COLORS = {"train": "tab:blue", "id": "tab:green", "ood": "tab:red"}
 
@@ -107,12 +107,12 @@ def _severe_event_panel(a: Axes, atlas: Atlas) -> None:
     a.legend(handles=lines, loc="upper left", fontsize=8)
 
 
-def plot_volume_trajectories(runs: list[tuple[str, str, Trajectory]], path: str | Path) -> Path:
+def plot_volume_trajectories(runs: list[SimulatedRun], path: str | Path) -> Path:
     """Pad volume against event for every run, coloured by split (paper Figure 4a)."""
     fig = Figure(figsize=(9, 5))
     ax = fig.subplots()
     seen = set()
-    for split, _, t in runs:
+    for split, t in ((r.split, r.trajectory) for r in runs):
         step = max(1, t.n_events // 2000)
         ax.plot(
             np.arange(0, t.n_events, step),
@@ -123,7 +123,9 @@ def plot_volume_trajectories(runs: list[tuple[str, str, Trajectory]], path: str 
         )
         seen.add(split)
     if runs:
-        ax.axhline(runs[0][2].final_volume_frac * 100, color="grey", ls=":", label="failure")
+        ax.axhline(
+            runs[0].trajectory.final_volume_frac * 100, color="grey", ls=":", label="failure"
+        )
     ax.set(
         xlabel="braking event",
         ylabel="remaining pad volume [%]",

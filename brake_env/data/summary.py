@@ -44,7 +44,8 @@ def dataset_summary(ds: Dataset, atlas: Atlas, seed: int) -> dict[str, Any]:
     """Per-run and overall figures of a dataset; timings kept apart under ``timing_s``."""
     runs: list[dict[str, Any]] = []
     ratios = []
-    for split, run_id, t in ds.runs:
+    for run in ds.runs:
+        split, run_id, t = run.split, run.run_id, run.trajectory
         last = t.layer == t.layer[-1]
         ratio = float(t.wear_frac[last].mean() / t.wear_frac[t.layer == 0].mean())
         ratios.append(ratio)

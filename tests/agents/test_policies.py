@@ -71,7 +71,7 @@ def test_oracle_is_cheapest_and_ratios_are_relative_to_it(atlas):
         assert r.cost >= oracle.cost, name
         assert r.ratio_to_oracle == pytest.approx(r.cost / oracle.cost)
     # Replacing with the true RUL wastes less than one decision interval of each pad.
-    assert max(oracle.retired_rul_events) < FAST["decision_interval"]
+    assert max(pad.life_left for pad in oracle.retired) < FAST["decision_interval"]
     assert summary_rows(reports)[1][0] == "oracle"
     json.dumps({k: r.to_dict() for k, r in reports.items()})
     lo, hi = oracle.interval()
@@ -81,7 +81,7 @@ def test_oracle_is_cheapest_and_ratios_are_relative_to_it(atlas):
 def test_same_seeds_same_report(atlas):
     a = run_episodes(*oracle_policy(BrakeWearEnv(atlas=atlas, **FAST)), seeds=[4])
     b = run_episodes(*oracle_policy(BrakeWearEnv(atlas=atlas, **FAST)), seeds=[4])
-    assert a.cost == b.cost and a.retired_rul_events == b.retired_rul_events
+    assert a.cost == b.cost and a.retired == b.retired
 
 
 def test_policy_ids_label_and_group_policies():

@@ -12,9 +12,9 @@ SMALL = DatasetSpec(n_train=2, n_id=2, n_ood_slow=1, n_ood_fast=1, wear=WearRegi
 def test_plan_follows_the_paper() -> None:
     spec = DatasetSpec()
     plan = spec.plan(np.random.default_rng(0))
-    splits = [p[0] for p in plan]
+    splits = [p.split for p in plan]
     assert splits.count("train") == 10 and splits.count("id") == 10 and splits.count("ood") == 10
-    k = {rid: kk for _, rid, kk in plan}
+    k = {p.run_id: p.wear_coeff for p in plan}
     slow = [v for r, v in k.items() if r.startswith("ood-slow")]
     fast = [v for r, v in k.items() if r.startswith("ood-fast")]
     train = [v for r, v in k.items() if r.startswith("train")]
@@ -30,7 +30,7 @@ def test_logs_hold_truth_and_noise_of_the_paper(small_atlas) -> None:
     )
     log, clean = ds.logs["train"], noiseless.logs["train"]
     assert [c.name for c in REQUIRED] + list(GROUND_TRUTH) == list(log.columns)
-    assert len(log) == sum(t.n_events for s, _, t in ds.runs if s == "train")
+    assert len(log) == sum(r.trajectory.n_events for r in ds.runs if r.split == "train")
     resid = log["temp_c"] - clean["temp_c"]
     assert resid.std() == pytest.approx(5.0, rel=0.05)
     assert (log["energy_j"] - clean["energy_j"]).std() == pytest.approx(2000.0, rel=0.05)
