@@ -7,8 +7,9 @@ filter over the Archard coefficient K through the atlas, updated at every brakin
 
 from __future__ import annotations
 
+from twin.calibration import fit_calibration
 from twin.config import TwinCalibration, TwinConfig
-from twin.twin import DigitalTwin, fit_calibration
+from twin.twin import DigitalTwin
 
 __all__ = [
     "DigitalTwin",

@@ -30,7 +30,7 @@ from brake_env.model.atlas import Atlas
 from brake_env.model.simulator import conditions_from_uniform
 from brake_env.model.wear import WearModel
 from brake_env.prognostics.protocol import MEASURED, EventBatch, Predictor, RULEstimate
-from twin.twin import FIT_COLUMNS
+from twin.calibration import FIT_COLUMNS
 
 BATCH_EVENTS = 100  # the paper's forward-simulation batch
 

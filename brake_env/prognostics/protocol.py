@@ -16,11 +16,14 @@ from __future__ import annotations
 from abc import ABC, abstractmethod
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, fields
-from typing import Any, ClassVar, Protocol, Self, runtime_checkable
+from typing import TYPE_CHECKING, Any, ClassVar, Protocol, Self, runtime_checkable
 
 import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
+
+if TYPE_CHECKING:
+    from brake_env.prognostics.fleet import Fleet
 
 F64 = NDArray[np.float64]
 
@@ -178,7 +181,7 @@ class Predictor(ABC):
     interval_level: ClassVar[float | None] = None
 
     def __init__(self) -> None:
-        self._next_event = 0
+        self._next_event: int | None = None  # None: a new pad, its first batch starts anywhere
 
     def fit(self, train_log: pd.DataFrame) -> Self:
         """Fit on training runs (an event log). Predictors without parameters do nothing."""
@@ -187,16 +190,25 @@ class Predictor(ABC):
 
     def reset(self) -> None:
         """A new pad is installed."""
-        self._next_event = 0
+        self._next_event = None
         self._reset()
 
     def update(self, events: EventBatch) -> RULEstimate:
-        """Take the next events of the installed pad; estimates after each of them."""
+        """Take the next events of the installed pad; estimates after each of them.
+
+        ``event`` counts from the pad's installation, so the first batch after ``reset``
+        may start anywhere: a log that starts mid-life (first row at event 30,000) means
+        30,000 events nobody logged. Later batches continue where the previous one ended.
+        """
         if len(events) == 0:
             raise ValueError(f"{self.name}: update() needs at least one event")
-        if int(events.event[0]) != self._next_event:
+        first = int(events.event[0])
+        if self._next_event is None:
+            if first < 0:
+                raise ValueError(f"{self.name}: event indices start at 0, got {first}")
+        elif first != self._next_event:
             raise ValueError(
-                f"{self.name}: batch starts at event {int(events.event[0])}, expected"
+                f"{self.name}: batch starts at event {first}, expected"
                 f" {self._next_event} (call reset() when a pad is installed)"
             )
         est = self._update(events)
@@ -204,6 +216,22 @@ class Predictor(ABC):
             raise RuntimeError(f"{self.name}: {len(est)} estimates for {len(events)} events")
         self._next_event = int(events.event[-1]) + 1
         return est
+
+    def fleet(self, n_pads: int) -> Fleet:
+        """State for ``n_pads`` pads updated together (see :mod:`.fleet`). The default runs
+        a copy of this fitted predictor per pad; predictors override it to vectorise."""
+        from brake_env.prognostics.fleet import LoopFleet
+
+        return LoopFleet(self, n_pads)
+
+    def get_state(self) -> tuple[dict[str, Any], dict[str, NDArray[Any]]]:
+        """What fitting learned: JSON-able settings and named numpy arrays, so a fitted
+        predictor is saved without pickle (README "Fleet logs")."""
+        raise NotImplementedError(f"{self.name}: this predictor cannot be saved")
+
+    def set_state(self, meta: Mapping[str, Any], arrays: Mapping[str, NDArray[Any]]) -> None:
+        """Restore what :meth:`get_state` returned, on a predictor made by the same factory."""
+        raise NotImplementedError(f"{self.name}: this predictor cannot be loaded")
 
     def _fit(self, train_log: pd.DataFrame) -> None:  # noqa: B027 - optional hook
         pass
