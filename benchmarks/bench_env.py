@@ -1,14 +1,21 @@
 """Benchmark of BrakeWear-v0 against the bare simulator in the same run (targets in brackets).
 
-Prints env steps/s and braking events/s for ``decision_interval`` 1 and the default (500),
-bare (``gym.make``, with Gymnasium's default wrappers) and with the oracle RUL wrapper, next
-to the bare simulator's events/s measured in the same process:
-- steps/s at interval 1 [>= 20,000];
-- events/s through the env at the default interval / the bare simulator's [>= 0.5].
+Prints, next to the bare simulator's events/s measured in the same process:
+- steps/s at the default interval (500) under three policies: keep only (a replacement only
+  at each failure), random replacements with probability 0.01 and 0.5 per step, each with
+  ``truth=True`` (the default: every new pad simulated ahead to failure for the exact RUL)
+  and ``truth=False`` (events simulated only as the env serves them):
+  - replace probability 0.5, truth=False [>= 1,000 steps/s];
+  - replace probability 0.01 / keep only, truth=False [>= 0.5x] (with truth each
+    replacement still simulates a whole life ahead, as every replacement did before pads
+    were streamed: 0.45x then);
+  - keep only, truth=True, events/s / the simulator's [no lower than before pads were
+    streamed: 0.61x, this script on commit 1de0289 without its truth=False rows].
+- steps/s at interval 1, bare and with the oracle RUL wrapper [>= 20,000 steps/s bare].
 
-The simulator baseline is measured two ways: one pad per call (what the env does at each
-installation) and eight pads per call (the batched use); the ratio is taken against the
-faster of the two.
+The simulator baseline is measured two ways: one pad per call (one pad's whole life, what
+the env did at each installation before pads were streamed) and eight pads per call (the
+batched use); the ratios are taken against the faster of the two.
 
 Run: ``make bench`` or ``.venv/bin/python benchmarks/bench_env.py [--json out.json]``.
 """
@@ -17,6 +24,7 @@ from __future__ import annotations
 
 import argparse
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import gymnasium as gym
@@ -30,47 +38,73 @@ from brake_env.output import table, write_json
 from brake_env.prognostics.protocol import Oracle
 
 
-def best_of(n: int, fn):
-    times = []
-    for _ in range(n):
-        t0 = time.perf_counter()
-        out = fn()
-        times.append(time.perf_counter() - t0)
-    return min(times), out
-
-
-def simulator_events_per_s(atlas, pads_per_call: int, n_pads: int, repeats: int) -> float:
+def simulator_job(atlas, pads_per_call: int, n_pads: int = 8) -> Callable[[], tuple[int, int]]:
+    """Simulate ``n_pads`` whole lives, ``pads_per_call`` per call: (0 steps, events)."""
     seeds = np.random.SeedSequence(1).spawn(n_pads)
     ks = np.random.default_rng(1).normal(2e-6, 2e-7, n_pads)
 
-    def run() -> int:
+    def run() -> tuple[int, int]:
         events = 0
         for i in range(0, n_pads, pads_per_call):
             sl = slice(i, i + pads_per_call)
             events += sum(t.n_events for t in simulate_runs(atlas, ks[sl], seeds[sl]))
-        return events
+        return 0, events
 
-    s, events = best_of(repeats, run)
-    return events / s
+    return run
 
 
-def env_rate(interval: int, wrapped: bool, steps: int, repeats: int) -> tuple[float, float]:
-    """(steps/s, events/s) of ``steps`` keep-actions, resets included, best of ``repeats``."""
+def env_job(
+    interval: int, steps: int, p_replace: float = 0.0, **kw
+) -> Callable[[], tuple[int, int]]:
+    """``steps`` steps that replace with probability ``p_replace`` (the same actions each
+    time), reset included: (steps, events). ``kw``: ``oracle`` wraps the env in the
+    oracle's RUL observation; the rest goes to ``gym.make``."""
+    oracle = kw.pop("oracle", False)
     episode = max(steps * interval + 1, 2)
-    env = gym.make("BrakeWear-v0", decision_interval=interval, episode_events=episode)
-    if wrapped:
+    env = gym.make("BrakeWear-v0", decision_interval=interval, episode_events=episode, **kw)
+    if oracle:
         env = RULObservation(env, Oracle())
+    actions = (np.random.default_rng(1).random(steps) < p_replace).astype(int).tolist()
 
-    def run() -> int:
+    def run() -> tuple[int, int]:
         _, info = env.reset(seed=0)
         events = len(info["events"])
-        for _ in range(steps):
-            _, _, _, _, info = env.step(0)
+        for a in actions:
+            _, _, _, _, info = env.step(a)
             events += len(info["events"])
-        return events
+        return steps, events
 
-    s, events = best_of(repeats, run)
-    return steps / s, events / s
+    return run
+
+
+def rates(
+    jobs: dict[str, Callable[[], tuple[int, int]]], repeats: int
+) -> dict[str, tuple[float, float]]:
+    """(steps/s, events/s) of each job, from its least CPU time over ``repeats`` rounds.
+
+    CPU time of this process, not wall time, and the jobs interleaved round by round, so
+    that other work on the machine moves the ratios less (everything here is one thread).
+    """
+    best = dict.fromkeys(jobs, np.inf)
+    counts = {}
+    for _ in range(repeats):
+        for name, job in jobs.items():
+            t0 = time.process_time()
+            counts[name] = job()
+            best[name] = min(best[name], time.process_time() - t0)
+    return {k: (counts[k][0] / best[k], counts[k][1] / best[k]) for k in jobs}
+
+
+# (replace probability, steps, target) at the default interval. With truth, p = 0.5
+# simulates a whole pad every other step, so it gets fewer steps.
+SCENARIOS = {
+    True: ((0.0, 2000, ">= 0.61x simulator (before)"), (0.01, 2000, ""), (0.5, 200, "")),
+    False: (
+        (0.0, 2000, ""),
+        (0.01, 2000, ">= 0.5x keep-only"),
+        (0.5, 2000, ">= 1,000 steps/s"),
+    ),
+}
 
 
 def main() -> dict[str, float]:
@@ -79,39 +113,58 @@ def main() -> dict[str, float]:
     ap.add_argument("--json", default=None, help="also write the figures to this JSON file")
     args = ap.parse_args()
     atlas = default_atlas()
-    sim_one = simulator_events_per_s(atlas, 1, 8, args.repeats)
-    sim_batch = simulator_events_per_s(atlas, 8, 8, args.repeats)
-    sim = max(sim_one, sim_batch)
+    jobs = {"sim_one": simulator_job(atlas, 1), "sim_batch": simulator_job(atlas, 8)}
+    for truth, scenarios in SCENARIOS.items():
+        for p, steps, _ in scenarios:
+            jobs[f"interval_500_p{p:g}_truth_{truth}"] = env_job(500, steps, p, truth=truth)
+    # Interval 1: 100k steps (~one pad life): the cost of a step itself.
+    for oracle in (False, True):
+        jobs[f"interval_1_{'oracle' if oracle else 'bare'}"] = env_job(1, 100_000, oracle=oracle)
+    r = rates(jobs, args.repeats)
+    sim = max(r["sim_one"][1], r["sim_batch"][1])
     fig: dict[str, float] = {
-        "simulator_events_per_s_one_pad_per_call": sim_one,
-        "simulator_events_per_s_8_pads_per_call": sim_batch,
+        "simulator_events_per_s_one_pad_per_call": r["sim_one"][1],
+        "simulator_events_per_s_8_pads_per_call": r["sim_batch"][1],
     }
-    rows = []
-    # Interval 1: 100k steps (~one pad life); default: 2000 steps (~8 pad lives).
-    for interval, steps in ((1, 100_000), (500, 2000)):
-        for wrapped in (False, True):
-            sps, eps = env_rate(interval, wrapped, steps, args.repeats)
-            tag = f"interval_{interval}_{'oracle' if wrapped else 'bare'}"
+    rows = [
+        ["simulator, 1 pad per call", "", f"{r['sim_one'][1]:.3g} ev/s", "", "", "baseline"],
+        ["simulator, 8 pads per call", "", f"{r['sim_batch'][1]:.3g} ev/s", "", "", "baseline"],
+    ]
+    for truth, scenarios in SCENARIOS.items():
+        keep = r[f"interval_500_p0_truth_{truth}"][0]
+        for p, _, target in scenarios:
+            tag = f"interval_500_p{p:g}_truth_{truth}"
+            sps, eps = r[tag]
             fig[f"{tag}_steps_per_s"], fig[f"{tag}_events_per_s"] = sps, eps
             fig[f"{tag}_events_ratio_to_simulator"] = eps / sim
-            target = ""
-            if interval == 1 and not wrapped:
-                target = ">= 20,000 steps/s"
-            elif interval == 500 and not wrapped:
-                target = ">= 0.5x simulator"
+            fig[f"{tag}_steps_ratio_to_keep_only"] = sps / keep
+            label = "keep only" if p == 0 else f"replace p={p:g}"
             rows.append(
-                (
-                    f"env, interval {interval}, {'oracle wrapper' if wrapped else 'bare'}",
+                [
+                    f"env, interval 500, {label}, truth={truth}",
                     f"{sps:,.0f} steps/s",
                     f"{eps:.3g} ev/s",
                     f"{eps / sim:.2f}x",
+                    f"{sps / keep:.2f}x",
                     target,
-                )
+                ]
             )
-    rows.insert(0, ("simulator, 1 pad per call", "", f"{sim_one:.3g} ev/s", "", "baseline"))
-    rows.insert(1, ("simulator, 8 pads per call", "", f"{sim_batch:.3g} ev/s", "", "baseline"))
-    header = ("figure", "steps/s", "events/s", "x simulator", "target")
-    print(table([list(r) for r in (header, *rows)]))
+    for oracle in (False, True):
+        tag = f"interval_1_{'oracle' if oracle else 'bare'}"
+        sps, eps = r[tag]
+        fig[f"{tag}_steps_per_s"], fig[f"{tag}_events_per_s"] = sps, eps
+        rows.append(
+            [
+                f"env, interval 1, {'oracle wrapper' if oracle else 'bare'}",
+                f"{sps:,.0f} steps/s",
+                f"{eps:.3g} ev/s",
+                f"{eps / sim:.2f}x",
+                "",
+                "" if oracle else ">= 20,000 steps/s",
+            ]
+        )
+    header = ["figure", "steps/s", "events/s", "x simulator", "x keep-only", "target"]
+    print(table([header, *rows]))
     if args.json:
         write_json(fig, Path(args.json))
     return fig

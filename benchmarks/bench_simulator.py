@@ -109,7 +109,7 @@ def main() -> dict[str, float]:
             "per-event reference loop",
             f"{figures['reference_events_per_s']:.3g} ev/s",
             "",
-            f"run {plan[0][1]}: {ref.n_events} events in {ref_s:.1f} s",
+            f"run {plan[0].run_id}: {ref.n_events} events in {ref_s:.1f} s",
         ),
         (
             "speed-up, 30 runs / reference",

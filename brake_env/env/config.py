@@ -112,9 +112,18 @@ class EnvConfig:
         noise: Sensor noise of the observed channels (a :class:`SensorNoise` or a dict).
         preset: Brake calibration of the default atlas (``hot-duty`` or ``cold-start``).
         interpolate_layers: Blend adjacent atlas layers by volume (paper footnote 1).
-        cache_pads: Keep the last this many simulated pads (~7.5 MB each at the default K)
-            so that replaying a seed does not simulate its pads again; 0 keeps none. A pure
-            speed option: the pads are the same either way.
+        truth: Give the true RUL: each new pad is simulated ahead to failure when it is
+            installed (on a copy of its random stream; events up to ~5e5 are kept for
+            serving, the rest only counted), so ``info["truth"]["rul_events"]`` and
+            ``["life_events"]``, the events' ``rul_events`` column (the oracle reads it)
+            and each :class:`~brake_env.env.pads.RetiredPad`'s ``life_left`` and ``life``
+            are exact. With False the env simulates only the events it serves, so a
+            replacement costs what the pad was used for (exploration, training): those
+            fields are None, except that a failed pad's ``life_left`` is 0 and its
+            ``life`` the events it braked; the true volume and K are given either way.
+        cache_pads: Keep the last this many pads (with the events simulated so far, ~7 MB
+            a pad's life at the default K) so that replaying a seed does not simulate its
+            pads again; 0 keeps none. A pure speed option: the pads are the same either way.
         pad_pool: Draw every new pad from a fixed pool of this many pads (made from
             ``pad_pool_seed``, shared by all envs of the process with the same settings),
             so each is simulated, and a precomputed predictor run over it, once. For
@@ -134,6 +143,7 @@ class EnvConfig:
     noise: SensorNoise = field(default_factory=SensorNoise)
     preset: str = "hot-duty"
     interpolate_layers: bool = False
+    truth: bool = True
     cache_pads: int = 0
     pad_pool: int = 0
     pad_pool_seed: int = 0
@@ -159,10 +169,11 @@ class EnvConfig:
                     f"BrakeWear-v0: {name} must be {kind.__name__} or a dict of its fields,"
                     f" got {getattr(self, name)!r}"
                 )
-        if not isinstance(self.interpolate_layers, bool):
-            raise ValueError(
-                f"BrakeWear-v0: interpolate_layers must be a bool, got {self.interpolate_layers!r}"
-            )
+        for name in ("interpolate_layers", "truth"):
+            if not isinstance(getattr(self, name), bool):
+                raise ValueError(
+                    f"BrakeWear-v0: {name} must be a bool, got {getattr(self, name)!r}"
+                )
         self.pad_regime  # validates the regime fields  # noqa: B018
 
     @property

@@ -3,10 +3,10 @@
 This is the whole transition logic of BrakeWear-v0. The single env drives one
 :class:`PadService`; the vector env drives one per sub-environment, so the logic exists once.
 
-Actions cannot change how a pad wears (the operating conditions do not depend on them), so a
-pad's whole life is simulated when it is installed: one vectorised run through the atlas
-plus its sensor noise. Serving the events of a step is then slicing, and the true RUL is
-exact.
+Actions cannot change how a pad wears (the operating conditions do not depend on them), so
+a pad's events are a function of its K and its random stream: a :class:`PadLife` simulates
+them as they are served, a block at a time, and simulates ahead to failure only where the
+config asks for the true RUL (``truth``).
 """
 
 from __future__ import annotations
@@ -18,11 +18,14 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from brake_env.data.datasets import measure
 from brake_env.env.config import EnvConfig
+from brake_env.env.pad_life import PadLife
 from brake_env.model.atlas import Atlas
-from brake_env.model.simulator import F64, simulate_runs
+from brake_env.model.simulator import simulate_runs
+from brake_env.model.streams import NoiseStreams
 from brake_env.prognostics.protocol import MEASURED, TRUTH, EventBatch
+
+__all__ = ["COST_TERMS", "PadLife", "PadService", "RetiredPad", "simulate_pad"]
 
 COST_TERMS = ("planned_replacement", "corrective_replacement", "downtime", "damage", "revenue")
 
@@ -32,13 +35,14 @@ class RetiredPad:
     """A pad taken off in a step (an entry of ``info["retired"]``).
 
     Attributes:
-        life_left: Events of life it still had [events]; 0 for a pad that failed.
-        life: Events of its whole life [events].
+        life_left: Events of life it still had [events]; 0 for a pad that failed; None
+            for a planned replacement in an env without ``truth``.
+        life: Events of its whole life [events]; None where ``life_left`` is.
         regime: Its wear regime, ``id``, ``ood-slow`` or ``ood-fast``.
     """
 
-    life_left: int
-    life: int
+    life_left: int | None
+    life: int | None
     regime: str
 
     @property
@@ -47,64 +51,36 @@ class RetiredPad:
         return self.life_left == 0
 
 
-@dataclass(frozen=True, eq=False)
-class PadLife:
-    """A pad simulated from installation to failure.
-
-    Attributes:
-        wear_coeff: Its Archard coefficient K [-].
-        label: Its wear regime, ``id``, ``ood-slow`` or ``ood-fast``.
-        measured: Logged channels of each event, columns in ``MEASURED`` order, shape (n, 6).
-        volume_frac: True volume at the start of each event [-].
-        volume_after: True volume after each event [-].
-    """
-
-    wear_coeff: float
-    label: str
-    measured: F64
-    volume_frac: F64
-    volume_after: F64
-
-    @property
-    def n_events(self) -> int:
-        """Events the pad completes; after the last one it can no longer stop the vehicle."""
-        return len(self.volume_frac)
-
-    def events(self, start: int = 0, stop: int | None = None) -> EventBatch:
-        """Events ``start`` to ``stop`` (default: to the end of life) with ground truth."""
-        b = self.n_events if stop is None else stop
-        cols: dict[str, Any] = {"event": np.arange(start, b)}
-        cols.update((k, self.measured[start:b, i]) for i, k in enumerate(MEASURED))
-        cols["volume_frac"] = self.volume_frac[start:b]
-        cols["wear_coeff"] = np.full(b - start, self.wear_coeff)
-        cols["rul_events"] = np.arange(self.n_events - 1 - start, self.n_events - 1 - b, -1)
-        return EventBatch(**cols)
-
-
 def simulate_pad(
     atlas: Atlas, config: EnvConfig, wear_coeff: float, label: str, seed: np.random.SeedSequence
 ) -> PadLife:
-    """Simulate one pad's life and its sensor readings; ``seed`` spawns both streams, as
-    :func:`brake_env.data.datasets.seeded_plan` does for a dataset run."""
+    """One pad's whole life at once (:func:`simulate_runs` and its sensor noise); a
+    streamed :class:`PadLife` of the same arguments gives the same events. ``seed`` spawns
+    the operating-condition and the sensor-noise streams, as
+    :func:`brake_env.data.datasets.seeded_plan` does for a dataset run (the same
+    conditions and truth; the noise is drawn per channel, :mod:`brake_env.model.streams`)."""
     cond_seed, noise_seed = seed.spawn(2)
     (t,) = simulate_runs(atlas, [wear_coeff], [cond_seed], None, config.interpolate_layers)
-    measured = np.empty((t.n_events, len(MEASURED)))
-    cols = {k: measured[:, i] for i, k in enumerate(MEASURED)}
-    measure(t, config.noise, np.random.default_rng(noise_seed), out=cols)
-    after = np.append(t.volume_frac[1:], t.final_volume_frac)
-    return PadLife(wear_coeff, label, measured, t.volume_frac, after)
+    measured = np.empty((len(MEASURED), t.n_events))
+    noise = NoiseStreams(config.noise, noise_seed.spawn(len(MEASURED)))
+    noise.measure(t.speed_mps, t.mass_kg, t.slope_rad, t.temp_mean_c, t.stop_dist_m, list(measured))
+    return PadLife.whole(
+        wear_coeff, label, measured, t.volume_frac, t.final_volume_frac, config.truth
+    )
 
 
 _POOL: dict[tuple[Any, ...], PadLife] = {}
 
 
 def _pool_pad(atlas: Atlas, config: EnvConfig, index: int) -> PadLife:
-    """Pad ``index`` of the config's pool, simulated on first use and kept for the process."""
+    """Pad ``index`` of the config's pool, made on first use and kept for the process (with
+    the events simulated so far)."""
     key = (
         atlas.content_hash,
         config.pad_regime,
         config.noise,
         config.interpolate_layers,
+        config.truth,
         config.pad_pool_seed,
         config.pad_pool,
         index,
@@ -113,7 +89,7 @@ def _pool_pad(atlas: Atlas, config: EnvConfig, index: int) -> PadLife:
         rng = np.random.default_rng([config.pad_pool_seed, config.pad_pool])
         draws = [(*config.pad_regime.draw(rng), int(rng.integers(2**63))) for _ in range(index + 1)]
         k, label, entropy = draws[index]
-        _POOL[key] = simulate_pad(atlas, config, k, label, np.random.SeedSequence(entropy))
+        _POOL[key] = PadLife(atlas, config, k, label, np.random.SeedSequence(entropy))
     return _POOL[key]
 
 
@@ -167,35 +143,41 @@ class PadService:
         """Latest measured event and events since installation."""
         assert self.pad is not None
         obs = np.empty(len(MEASURED) + 1, dtype=np.float32)
-        obs[:-1] = self.pad.measured[self.pos - 1]
+        obs[:-1] = self.pad.measured_at(self.pos - 1)
         obs[-1] = self.pos
         return obs
 
     # ------------------------------------------------------------------ internals
     def _install(self) -> None:
+        self.pad, self.pos = self._new_pad(), 0
+        if self.config.truth:
+            self.pad.n_events  # simulate ahead to failure: the true RUL  # noqa: B018
+
+    def _new_pad(self) -> PadLife:
         if self.config.pad_pool:
-            self.pad = _pool_pad(
-                self.atlas, self.config, int(self.rng.integers(self.config.pad_pool))
-            )
-            self.pos = 0
-            return
+            return _pool_pad(self.atlas, self.config, int(self.rng.integers(self.config.pad_pool)))
         k, label = self.regime.draw(self.rng)
         entropy = int(self.rng.integers(2**63))
         pad = self._cache.get((k, entropy))
         if pad is None:
-            pad = simulate_pad(self.atlas, self.config, k, label, np.random.SeedSequence(entropy))
+            pad = PadLife(self.atlas, self.config, k, label, np.random.SeedSequence(entropy))
             if self.config.cache_pads:
                 self._cache[(k, entropy)] = pad
                 while len(self._cache) > self.config.cache_pads:
                     self._cache.popitem(last=False)
         else:
             self._cache.move_to_end((k, entropy))
-        self.pad, self.pos = pad, 0
+        return pad
 
-    def _retire(self) -> RetiredPad:
+    def _retire(self, failed: bool = False) -> RetiredPad:
         """The installed pad's record as it is taken off, before the next is installed."""
-        assert self.pad is not None
-        return RetiredPad(self.pad.n_events - self.pos, self.pad.n_events, self.pad.label)
+        pad = self.pad
+        assert pad is not None
+        if failed:  # it braked all its life
+            return RetiredPad(0, self.pos, pad.label)
+        if not self.config.truth:
+            return RetiredPad(None, None, pad.label)
+        return RetiredPad(pad.n_events - self.pos, pad.n_events, pad.label)
 
     def _serve(self, n: int, replaced: bool) -> dict[str, Any]:
         costs = dict.fromkeys(COST_TERMS, 0.0)
@@ -204,19 +186,19 @@ class PadService:
             retired.append(self._retire())
             costs.update(self._planned)
             self._install()
-        segments = []  # (pad, first event, last event + 1) in service order
+        segments = []  # each pad's events of the step, in service order
         failures, left = 0, n
         while left:
             assert self.pad is not None
-            take = min(left, self.pad.n_events - self.pos)
+            take = self.pad.available(self.pos, left)
             if take == 0:  # the next event needs a pad that has no life left: failure
                 failures += 1
-                retired.append(self._retire())  # life_left 0: all of it was used
+                retired.append(self._retire(failed=True))
                 for key, value in self._failure.items():
                     costs[key] += value
                 self._install()
                 continue
-            segments.append((self.pad, self.pos, self.pos + take))
+            segments.append(self.pad.events(self.pos, self.pos + take))
             self.pos += take
             left -= take
         self.events_done += n
@@ -225,7 +207,7 @@ class PadService:
 
     def _info(
         self,
-        segments: list[tuple[PadLife, int, int]],
+        segments: list[EventBatch],
         costs: dict[str, float],
         replaced: bool,
         failures: int,
@@ -233,32 +215,32 @@ class PadService:
     ) -> dict[str, Any]:
         pad = self.pad
         assert pad is not None
-        events = _event_columns(segments)
+        life = pad.n_events if self.config.truth else None
         return {
-            "events": events,
+            "events": _event_columns(segments),
             "costs": costs,
             "replaced": replaced,
             "failures": failures,
             "pads_retired": len(retired),
             "retired": retired,
             "truth": {
-                "volume_frac": float(pad.volume_after[self.pos - 1]),
+                "volume_frac": pad.volume_after(self.pos - 1),
                 "wear_coeff": pad.wear_coeff,
-                "rul_events": pad.n_events - self.pos,
-                "life_events": pad.n_events,
+                "rul_events": None if life is None else life - self.pos,
+                "life_events": life,
                 "regime": pad.label,
             },
         }
 
 
-def _event_columns(segments: list[tuple[PadLife, int, int]]) -> EventBatch:
+def _event_columns(parts: list[EventBatch]) -> EventBatch:
     """The step's events: views of the pad's arrays, unless a failure split the step between
     two pads. An EventBatch, not a dict, so vector envs keep each sub-env's batch whole
     instead of stacking arrays whose lengths differ between sub-envs."""
-    parts = [pad.events(a, b) for pad, a, b in segments]
     if len(parts) == 1:
         return parts[0]
-    merged = {
-        k: np.concatenate([getattr(p, k) for p in parts]) for k in ("event", *MEASURED, *TRUTH)
+    merged: dict[str, Any] = {
+        k: None if getattr(parts[0], k) is None else np.concatenate([getattr(p, k) for p in parts])
+        for k in ("event", *MEASURED, *TRUTH)
     }
     return EventBatch(**merged)

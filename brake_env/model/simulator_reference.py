@@ -11,12 +11,10 @@ from brake_env.model.simulator import (
     RESPONSE_FIELDS,
     AlternatingRoutes,
     ConditionStream,
-    RunColumns,
     Trajectory,
     check_wear_per_event,
     conditions_from_uniform,
 )
-from brake_env.model.wear import WearModel
 
 
 def simulate_run_reference(
@@ -33,11 +31,7 @@ def simulate_run_reference(
     """
     check_wear_per_event(atlas, wear_coeff)
     pad_v = atlas.spec.model.brake.pad_volume_m3
-    stream = ConditionStream(
-        np.random.default_rng(seed),
-        int(1.1 * WearModel.from_atlas(atlas).life(wear_coeff)) + 1000,
-        duty,
-    )
+    stream = ConditionStream(np.random.default_rng(seed), duty=duty)
     lowers = atlas.lower_edges
     rows = []
     j, vol, k = 0, 1.0, 0
@@ -61,7 +55,7 @@ def simulate_run_reference(
             while after <= lowers[j]:  # the next layer whose band holds the volume
                 j += 1
             layer_start, acc = after, 0.0
-    out = RunColumns(len(rows))
     sp, m, th, temp, dist, dv, v, lay = (np.array(c) for c in zip(*rows, strict=True))
-    out.append(sp, m, th, temp, dist, dv, float(v[0]), v[1:], lay)
-    return out.trajectory(float(wear_coeff), float(vol))
+    return Trajectory(
+        float(wear_coeff), sp, m, th, temp, dist, dv, v, lay.astype(np.int16), float(vol)
+    )

@@ -4,6 +4,7 @@ import pytest
 from brake_env.model.simulator import (
     TRAJECTORY_ARRAYS,
     AlternatingRoutes,
+    Runs,
     simulate_runs,
 )
 from brake_env.model.simulator_reference import simulate_run_reference
@@ -48,11 +49,56 @@ def test_layer_blending_equals_per_event_reference(small_atlas) -> None:
         assert 0.97 * p.n_events < n <= p.n_events
 
 
-def test_a_run_does_not_depend_on_its_neighbours(small_atlas) -> None:
+@pytest.mark.parametrize("interpolate", [False, True])
+def test_a_run_does_not_depend_on_its_neighbours(small_atlas, interpolate) -> None:
     ss = seeds(4)
-    together = simulate_runs(small_atlas, [K_FAST, 2e-6 * 5, K_FAST * 2, K_FAST], ss)
-    alone = simulate_runs(small_atlas, [K_FAST * 2], [ss[2]])[0]
-    np.testing.assert_array_equal(together[2].volume_frac, alone.volume_frac)
+    ks = [K_FAST, 2e-6 * 5, K_FAST * 2, 1.1 * K_FAST]
+    together = simulate_runs(small_atlas, ks, ss, interpolate_layers=interpolate)
+    alone = simulate_runs(small_atlas, [ks[2]], [ss[2]], interpolate_layers=interpolate)[0]
+    for f in TRAJECTORY_ARRAYS:
+        np.testing.assert_array_equal(getattr(together[2], f), getattr(alone, f), err_msg=f)
+    # A block at a time, as a streamed pad is simulated: the same run, bit for bit.
+    runs = Runs(small_atlas, [ks[3]], [ss[3]], interpolate_layers=interpolate)
+    blocks = []
+    while not runs.done[0]:
+        blocks += runs.advance(np.zeros(1, dtype=np.intp))
+    assert [b.first for b in blocks] == list(
+        np.cumsum([0] + [len(b.volume_frac) for b in blocks[:-1]])
+    )
+    for f in TRAJECTORY_ARRAYS[:-1]:
+        got = np.concatenate([getattr(b, f) for b in blocks])
+        np.testing.assert_array_equal(got, getattr(together[3], f), err_msg=f)
+    layers = np.concatenate([np.full(len(b.volume_frac), b.layer) for b in blocks])
+    np.testing.assert_array_equal(layers, together[3].layer)
+    assert runs.vol[0] == together[3].final_volume_frac
+    # Wear only (how the env finds a pad's end of life ahead): the same life.
+    count = Runs(small_atlas, [ks[3]], [ss[3]], interpolate_layers=interpolate)
+    while not count.done[0]:
+        (b,) = count.advance(np.zeros(1, dtype=np.intp), response=False)
+        assert b.temp_mean_c is None
+    assert count.pos[0] == together[3].n_events and count.vol[0] == runs.vol[0]
+
+
+def test_condition_stream_keeps_about_a_block() -> None:
+    from brake_env.model.simulator import ConditionStream
+
+    seq = np.random.SeedSequence(2)
+    stream = ConditionStream(np.random.default_rng(seq))
+    got = [stream.take(a, 2000).copy() for a in range(0, 200_000, 2000)]
+    assert len(stream.u) <= 2000 + 16_384  # not the 200,000 events taken so far
+    np.testing.assert_array_equal(
+        np.concatenate(got), np.random.default_rng(seq).random((200_000, 3))
+    )
+    with pytest.raises(ValueError, match="in order"):
+        stream.take(0, 10)
+
+
+def test_sensor_channels_agree_everywhere() -> None:
+    from brake_env.data.schema import SENSOR_CHANNELS
+    from brake_env.model import streams
+    from brake_env.prognostics.protocol import MEASURED
+
+    assert SENSOR_CHANNELS == MEASURED == streams.SENSOR_CHANNELS
 
 
 def test_volume_layers_and_failure_are_consistent(small_atlas) -> None:
