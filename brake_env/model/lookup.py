@@ -30,6 +30,10 @@ class GridLookup:
         self.fields = fields
         self._tables: dict[tuple[str, ...], F64] = {}
         self._profiles: dict[str, F64] = {}
+        # Per axis (3, 1): nodes, first and last node, for locating 1-D points in one pass.
+        self._n = np.array([a.size for a in axes])[:, None]
+        self._lo = np.array([a[0] for a in axes])[:, None]
+        self._hi = np.array([a[-1] for a in axes])[:, None]
 
     # ---------------------------------------------------------------- locate
     def locate(self, s: F64, m: F64, th: F64, clip: bool = False) -> tuple[NDArray[np.intp], F64]:
@@ -58,6 +62,20 @@ class GridLookup:
             frac.append(u - i)
         cm, ct = self.axes[1].size - 1, self.axes[2].size - 1
         return (idx[0] * cm + idx[1]) * ct + idx[2], np.stack(frac)
+
+    def _locate_points(self, s: F64, m: F64, th: F64) -> tuple[NDArray[np.intp], F64]:
+        """:meth:`locate` with ``clip`` of 1-D points, the three axes in one pass (the
+        same arithmetic, so the same cells and fractions)."""
+        x = np.stack([s, m, th])
+        if not np.all(np.isfinite(x)):
+            bad = AXIS_NAMES[int(np.argmin(np.isfinite(x).all(axis=1)))]
+            raise ValueError(f"{bad} must be finite (got NaN or inf)")
+        n, lo, hi = self._n, self._lo, self._hi
+        u = np.clip((np.clip(x, lo, hi) - lo) * ((n - 1) / (hi - lo)), 0.0, n - 1)
+        r = np.rint(u)
+        u = np.where(np.abs(u - r) < 1e-9, r, u)
+        i = np.minimum(u.astype(np.intp), n - 2)
+        return (i[0] * (n[1, 0] - 1) + i[1]) * (n[2, 0] - 1) + i[2], u - i
 
     # ---------------------------------------------------------------- one layer per point
     def corner_table(self, names: tuple[str, ...]) -> F64:
@@ -105,11 +123,9 @@ class GridLookup:
         """(field, d field / d slope) of 1-D points: at every layer, shape (points, layers),
         or at each point's own ``layer``, shape (points,). Points outside the grid are
         clipped to it (a noisy slope sensor reads beyond the envelope now and then)."""
-        if field not in self._profiles:  # (cells, 8 corners, layers): one gather per point
-            t = self.corner_table((field,))[:, :, 0, :]  # (L, cells, 8)
-            self._profiles[field] = np.ascontiguousarray(np.moveaxis(t, 0, -1))
-        cell, f = self.locate(s, m, th, clip=True)
-        g = self._profiles[field][cell] if layer is None else self._profiles[field][cell, :, layer]
+        cell, f = self._locate_points(s, m, th)
+        table = self._corner_layers(field)
+        g = table[cell] if layer is None else table[cell, :, layer]
         fs, fm, ft = (x[:, None] for x in f)
         if layer is None:
             fs, fm, ft = fs[..., None], fm[..., None], ft[..., None]
@@ -117,6 +133,26 @@ class GridLookup:
         dslope = float(self.axes[2][1] - self.axes[2][0])
         c = lo + ft * (hi - lo)
         return _bilerp(c, fs[:, 0], fm[:, 0]), _bilerp((hi - lo) / dslope, fs[:, 0], fm[:, 0])
+
+    def profiles(
+        self, s: F64, m: F64, th: F64, field: str = "temp_mean_c", layers: slice = slice(None)
+    ) -> F64:
+        """``field`` and its slope derivative at every layer (or the ``layers`` slice) of 1-D
+        points, shape (points, 2, layers): each a weighted sum of the cell's 8 corners, one
+        small matrix product per point. The interpolant of :meth:`profile`, equal to it to
+        rounding (~1e-15 relative) in about half the time: the digital twin's hot path.
+        Points outside the grid are clipped to it."""
+        cell, f = self._locate_points(s, m, th)
+        corners = self._corner_layers(field)[cell, :, layers]  # (points, 8, layers)
+        return np.matmul(_corner_weights(f, float(self.axes[2][1] - self.axes[2][0])), corners)
+
+    def _corner_layers(self, field: str) -> F64:
+        """``field`` as (cells, 8 corners, layers), bit order (speed, mass, slope): one
+        contiguous gather per point fetches a cell at every layer (cached)."""
+        if field not in self._profiles:
+            t = self.corner_table((field,))[:, :, 0, :]  # (L, cells, 8)
+            self._profiles[field] = np.ascontiguousarray(np.moveaxis(t, 0, -1))
+        return self._profiles[field]
 
 
 class RegularGridInterp:
@@ -206,6 +242,20 @@ def trapezoid_weights(n: int) -> F64:
     w = np.ones(n)
     w[[0, -1]] = 0.5
     return w / w.sum()
+
+
+def _corner_weights(f: F64, dslope: float) -> F64:
+    """(points, 2, 8): the trilinear weight of each cell corner at fractions ``f`` (3,
+    points), and its derivative along slope per unit slope, corners in bit order (speed,
+    mass, slope)."""
+    fs, fm, ft = f
+    ab = (np.stack([1.0 - fs, fs])[:, None] * np.stack([1.0 - fm, fm])[None]).reshape(4, -1)
+    w = np.empty((fs.size, 2, 4, 2))
+    w[:, 0, :, 0] = (ab * (1.0 - ft)).T
+    w[:, 0, :, 1] = (ab * ft).T
+    w[:, 1, :, 1] = ab.T / dslope
+    w[:, 1, :, 0] = -w[:, 1, :, 1]
+    return w.reshape(-1, 2, 8)
 
 
 def _bilerp(c: F64, fs: F64, fm: F64) -> F64:

@@ -2,12 +2,13 @@
 
 The comparison of paper 2.5 and Table 4 for any set of predictors (a mapping name ->
 predictor, so this module imports neither the twin nor the baselines): each predictor is
-fitted on the training log, reset at the start of every test run and fed the run's events
-(as :func:`brake_env.prognostics.protocol.predict_log` does, run by run, so only one run's estimates
-are in memory at a time), and scored against the ground truth with
-:mod:`brake_env.prognostics.metrics`. The result is a JSON-able dict (per model, per split, per run,
-plus means and standard deviations over runs), a table like the paper's Table 4, and
-thinned traces of every run for the figures (:mod:`brake_env.prognostics.plots`).
+fitted on the training log and fed the events of every test run, each run a new pad (as
+:func:`brake_env.prognostics.protocol.predict_log` does: all runs of a split through the
+predictor's fleet at once when it has one, with an estimate at every event), and scored
+against the ground truth with :mod:`brake_env.prognostics.metrics`. The result is a
+JSON-able dict (per model, per split, per run, plus means and standard deviations over
+runs), a table like the paper's Table 4, and thinned traces of every run for the figures
+(:mod:`brake_env.prognostics.plots`).
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ import pandas as pd
 from numpy.typing import NDArray
 
 from brake_env.prognostics import metrics as m
+from brake_env.prognostics.fleet import predict_runs
 from brake_env.prognostics.protocol import EventBatch, RULEstimate, RULPredictor, iter_runs
 from brake_env.prognostics.tables import rmse_table, summary_table
 
@@ -45,7 +47,8 @@ class EvaluationConfig:
             in percent of life; see :func:`metrics.phm08_score`) [-].
         k_fractions: Points of the life at which the K-estimate error is reported [-].
         k_tolerance: Relative K error whose convergence event is reported [-].
-        batch_events: Events per ``update`` call; 0 gives each run as one batch.
+        batch_events: Events of a run per ``update`` call (runs interleaved in a fleet); 0
+            for as many as fit a call.
         trace_points: Events per run kept for the figures (evenly spaced, first and last
             included).
     """
@@ -146,8 +149,8 @@ def evaluate(
             a fresh pad (event 0).
         config: What to compute.
         fit: Fit the predictors first; False to score predictors fitted beforehand.
-        progress: Called with (model name, events) after each run is predicted, and with
-            (``"fit <name>"``, 0) before each fit.
+        progress: Called with (model name, events) after each ``update`` of the
+            predictor, and with (``"fit <name>"``, 0) before each fit.
 
     Returns:
         The metrics, traces and sample runs.
@@ -210,14 +213,13 @@ def _score_split(
 ) -> tuple[dict[str, Any], dict[str, pd.DataFrame]]:
     """Metrics of one fitted predictor over the runs of a split, and its thinned traces."""
     t0 = time.perf_counter()
+    tick = None if progress is None else (lambda n: progress(name, n))
+    ests = predict_runs(pred, [ev for _, ev in runs], cfg.batch_events, tick)
     per_run: dict[str, Any] = {}
     traces: dict[str, pd.DataFrame] = {}
-    for run_id, events in runs:
-        est = _predict_run(pred, events, cfg.batch_events)
+    for (run_id, events), est in zip(runs, ests, strict=True):
         per_run[run_id] = run_metrics(est, events, cfg)
         traces[run_id] = _trace(est, events, cfg.trace_points)
-        if progress:
-            progress(name, len(events))
     report = {
         "predict_seconds": time.perf_counter() - t0,
         "events": int(sum(len(e) for _, e in runs)),
@@ -245,6 +247,8 @@ def run_metrics(est: RULEstimate, events: EventBatch, cfg: EvaluationConfig) -> 
         "relative_accuracy": m.relative_accuracy(rul, true, cfg.lam),
         "alpha_lambda": m.alpha_lambda(rul, true, cfg.alpha, cfg.lam),
         "prognostic_horizon_frac": m.prognostic_horizon(rul, true, cfg.alpha, life) / life,
+        "cumulative_relative_accuracy": m.cumulative_relative_accuracy(rul, true),
+        "monotonicity": m.monotonicity(rul),
         "phm08": m.phm08_score(rul, true, cfg.phm_scale_life * life),
     }
     if est.volume_frac is not None and events.volume_frac is not None:
@@ -300,19 +304,6 @@ def _sample_run(split: str, runs: list[tuple[str, EventBatch]]) -> str:
         return runs[0][0]
     lives = [m.life_events(e.rul_events) for _, e in runs]  # type: ignore[arg-type]
     return runs[int(np.argmin(lives))][0]
-
-
-def _predict_run(pred: RULPredictor, events: EventBatch, batch: int) -> RULEstimate:
-    pred.reset()
-    step = batch or len(events)
-    parts = [pred.update(events[i : i + step]) for i in range(0, len(events), step)]
-    if len(parts) == 1:
-        return parts[0]
-    cols: dict[str, Any] = {"rul_mean": np.concatenate([p.rul_mean for p in parts])}
-    for k in _OPTIONAL:
-        vals = [getattr(p, k) for p in parts]
-        cols[k] = None if any(v is None for v in vals) else np.concatenate(vals)
-    return RULEstimate(**cols)
 
 
 def _trace(est: RULEstimate, events: EventBatch, points: int) -> pd.DataFrame:

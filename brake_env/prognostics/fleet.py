@@ -13,7 +13,10 @@ the single-pad predictor (``reset`` then ``update`` per pad) at the same events.
 from __future__ import annotations
 
 import copy
+import itertools
 from abc import ABC, abstractmethod
+from collections.abc import Callable, Sequence
+from dataclasses import fields
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -22,9 +25,10 @@ from numpy.typing import ArrayLike, NDArray
 from brake_env.prognostics.protocol import EventBatch, RULEstimate
 
 if TYPE_CHECKING:
-    from brake_env.prognostics.protocol import Predictor
+    from brake_env.prognostics.protocol import Predictor, RULPredictor
 
 ESTIMATE_FIELDS = ("rul_mean", "rul_lower", "rul_upper", "volume_frac", "wear_coeff")
+CALL_ROWS = 1 << 18  # rows per fleet update in predict_runs: bounds memory, paces progress
 
 
 class Fleet(ABC):
@@ -93,6 +97,97 @@ def concat(parts: list[RULEstimate]) -> RULEstimate:
     return RULEstimate(**kw)
 
 
+def concat_events(parts: Sequence[EventBatch]) -> EventBatch:
+    """Events of several batches (of any pads), one after the other; a truth column only
+    when every part has it."""
+    kw: dict[str, Any] = {}
+    for f in fields(EventBatch):
+        xs = [getattr(p, f.name) for p in parts]
+        kw[f.name] = None if any(x is None for x in xs) else np.concatenate(xs)
+    return EventBatch(**kw)
+
+
+def take_events(events: EventBatch, rows: NDArray[np.intp]) -> EventBatch:
+    """The events at ``rows`` (indices); a view when they are contiguous and increasing."""
+    if rows.size and rows[-1] - rows[0] + 1 == rows.size and np.all(np.diff(rows) == 1):
+        return events[int(rows[0]) : int(rows[-1]) + 1]
+    kw: dict[str, Any] = {f.name: getattr(events, f.name) for f in fields(EventBatch)}
+    taken: dict[str, Any] = {k: None if v is None else v[rows] for k, v in kw.items()}
+    return EventBatch(**taken)
+
+
+def vectorises(predictor: RULPredictor) -> bool:
+    """Whether ``predictor`` has a fleet of its own (not the per-slot copies of
+    :class:`LoopFleet`)."""
+    from brake_env.prognostics.protocol import Predictor
+
+    own = getattr(type(predictor), "fleet", None)
+    return own is not None and own is not Predictor.fleet
+
+
+def predict_runs(
+    predictor: RULPredictor,
+    runs: Sequence[EventBatch],
+    batch_events: int = 0,
+    progress: Callable[[int], object] | None = None,
+) -> list[RULEstimate]:
+    """Estimates at every event of each run, each run a new pad (evaluation, logs).
+
+    A predictor with a fleet of its own takes all runs through one fleet, ``CALL_ROWS``
+    rows per update (``batch_events`` > 0: that many events of every run per update, the
+    runs interleaved); any other runs pad by pad (``reset``, then ``update`` with batches
+    of ``batch_events``, 0: the whole run), without copies of itself.
+
+    Args:
+        predictor: A fitted predictor.
+        runs: The events of each run, from any event of the pad on.
+        batch_events: Events of a run per update; 0 for as many as fit a call.
+        progress: Called with the number of events after each update.
+    """
+    if batch_events < 0:
+        raise ValueError(f"predict_runs: batch_events must be >= 0, got {batch_events}")
+    if not vectorises(predictor):
+        return [_one_pad(predictor, ev, batch_events, progress) for ev in runs]
+    sizes = np.array([len(ev) for ev in runs], dtype=np.intp)
+    starts = np.r_[0, np.cumsum(sizes)]
+    events = concat_events(runs)
+    pads = np.repeat(np.arange(len(runs), dtype=np.intp), sizes)
+    pos = np.arange(len(pads)) - starts[pads]  # row within its run
+    if batch_events:  # round r: the r-th batch of every run, runs in order
+        order = np.lexsort((pads, pos // batch_events))
+        calls = np.searchsorted(
+            pos[order] // batch_events, np.arange(pos.max() // batch_events + 2)
+        )
+    else:
+        order = np.arange(len(pads))
+        calls = np.r_[np.arange(0, len(pads), CALL_ROWS), len(pads)]
+    fleet = predictor.fleet(len(runs))  # type: ignore[attr-defined]
+    parts = []
+    for a, b in itertools.pairwise(calls):
+        if b > a:
+            rows = order[a:b]
+            parts.append(fleet.update(pads[rows], take_events(events, rows), np.ones(b - a, bool)))
+            if progress:
+                progress(int(b - a))
+    est = concat(parts)
+    back = np.empty_like(order)
+    back[order] = np.arange(len(order))
+    return [select(est, back[a:b]) for a, b in itertools.pairwise(starts)]
+
+
+def _one_pad(
+    predictor: RULPredictor, ev: EventBatch, batch: int, progress: Callable[[int], object] | None
+) -> RULEstimate:
+    predictor.reset()
+    step = batch or len(ev)
+    parts = []
+    for i in range(0, len(ev), step):
+        parts.append(predictor.update(ev[i : i + step]))
+        if progress:
+            progress(len(parts[-1]))
+    return parts[0] if len(parts) == 1 else concat(parts)
+
+
 class LoopFleet(Fleet):
     """The reference fleet: one copy of the fitted predictor per slot, updated in turn."""
 
@@ -115,6 +210,8 @@ class LoopFleet(Fleet):
         pads = np.asarray(pads, dtype=np.intp)
         if len(pads) != len(events):
             raise ValueError(f"Fleet.update: {len(pads)} slots for {len(events)} events")
+        if len(pads) == 0:
+            raise ValueError("Fleet.update: needs at least one event")
         want = last_rows(pads) if summarise is None else np.asarray(summarise, dtype=bool)
         starts, slots = slot_runs(pads)
         ends = np.append(starts[1:], len(pads))

@@ -248,6 +248,12 @@ class Oracle(Predictor):
 
     name = "oracle"
 
+    def get_state(self) -> tuple[dict[str, Any], dict[str, NDArray[Any]]]:
+        return {}, {}  # nothing learned: it reads the truth
+
+    def set_state(self, meta: Mapping[str, Any], arrays: Mapping[str, NDArray[Any]]) -> None:
+        pass
+
     def _update(self, events: EventBatch) -> RULEstimate:
         if events.rul_events is None:
             raise ValueError("oracle: the events carry no ground truth (rul_events)")
@@ -277,6 +283,13 @@ class NoPrognostics(Predictor):
     def _fit(self, train_log: pd.DataFrame) -> None:
         self.mean_life_events = float(train_log.groupby("run_id", observed=True).size().mean())
 
+    def get_state(self) -> tuple[dict[str, Any], dict[str, NDArray[Any]]]:
+        return {"mean_life_events": self.mean_life_events}, {}
+
+    def set_state(self, meta: Mapping[str, Any], arrays: Mapping[str, NDArray[Any]]) -> None:
+        m = meta.get("mean_life_events")
+        self.mean_life_events = None if m is None else float(m)
+
     def _update(self, events: EventBatch) -> RULEstimate:
         if self.mean_life_events is None:
             raise RuntimeError("none: call fit() or give mean_life_events")
@@ -284,23 +297,30 @@ class NoPrognostics(Predictor):
 
 
 def predict_log(predictor: RULPredictor, log: pd.DataFrame, batch_events: int = 0) -> pd.DataFrame:
-    """Run ``predictor`` over every run of an event log, resetting it at each run.
+    """Run ``predictor`` over every run of an event log, each run a new pad.
+
+    A predictor with a fleet of its own (:meth:`Predictor.fleet`) takes all runs together,
+    with estimates at every event; any other is reset at each run and fed its events. The
+    numbers are the same either way (the fleet contract).
 
     Args:
         predictor: A fitted predictor.
-        log: A validated event log; each run starts at a fresh pad (event 0).
-        batch_events: Events per ``update`` call; 0 gives each run as one batch.
+        log: A validated event log; each run is a pad, logged from installation or from
+            any later event.
+        batch_events: Events of a run per ``update`` call; 0 for as many as fit a call.
 
     Returns:
         One row per event, run by run in order of first appearance: ``run_id``, ``event``
         and the estimate's columns (``rul_mean`` and whichever optional ones it gives).
     """
+    from brake_env.prognostics.fleet import predict_runs  # fleet imports this module
+
+    runs = list(iter_runs(log))
     parts = []
-    for run_id, events in iter_runs(log):
-        predictor.reset()
-        step = batch_events or len(events)
-        ests = [predictor.update(events[i : i + step]) for i in range(0, len(events), step)]
-        frame = pd.concat([e.to_frame() for e in ests], ignore_index=True)
+    for (run_id, events), est in zip(
+        runs, predict_runs(predictor, [ev for _, ev in runs], batch_events), strict=True
+    ):
+        frame = est.to_frame()
         frame.insert(0, "event", events.event)
         frame.insert(0, "run_id", run_id)
         parts.append(frame)
