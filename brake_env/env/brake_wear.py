@@ -12,6 +12,7 @@ from numpy.typing import NDArray
 
 from brake_env.env.config import EnvConfig
 from brake_env.env.pads import PadLife, PadService
+from brake_env.env.render import Dashboard
 from brake_env.model.atlas import Atlas, AtlasSpec, cached_atlas
 from brake_env.model.params import BrakeModel
 from brake_env.prognostics.protocol import MEASURED
@@ -121,15 +122,18 @@ class BrakeWearEnv(gym.Env[NDArray[np.float32], np.int64]):
 
     Every field of :class:`EnvConfig` is a keyword argument (``costs`` and ``noise`` also
     as dicts), plus ``config`` (a whole :class:`EnvConfig`), ``atlas`` (an :class:`Atlas`
-    or the path of a saved one; default the preset's cached atlas) and ``render_mode``
-    (``"ansi"`` or None). Unknown or out-of-range arguments raise ``ValueError``.
+    or the path of a saved one; default the preset's cached atlas) and ``render_mode``:
+    None, ``"ansi"`` (a line of text) or ``"rgb_array"`` (a 240x320 dashboard: pad volume,
+    true RUL, a wrapper's RUL estimate and interval, recent temperatures, counts; see
+    :mod:`brake_env.env.render`). Unknown or out-of-range arguments raise ``ValueError``.
 
     ## Version History
 
     * v0: initial version.
     """
 
-    metadata = {"render_modes": ["ansi"]}  # noqa: RUF012 - gymnasium's convention
+    # One frame per step (decision); 30 fps plays a 1,000-step episode in about 33 s.
+    metadata = {"render_modes": ["ansi", "rgb_array"], "render_fps": 30}  # noqa: RUF012
 
     def __init__(
         self,
@@ -141,7 +145,8 @@ class BrakeWearEnv(gym.Env[NDArray[np.float32], np.int64]):
         self.config = EnvConfig.from_kwargs(config, **kwargs)
         if render_mode not in (None, *self.metadata["render_modes"]):
             raise ValueError(
-                f"BrakeWear-v0: render_mode must be None or 'ansi', got {render_mode!r}"
+                "BrakeWear-v0: render_mode must be None, 'ansi' or 'rgb_array',"
+                f" got {render_mode!r}"
             )
         self.render_mode = render_mode
         if atlas is None:
@@ -154,12 +159,15 @@ class BrakeWearEnv(gym.Env[NDArray[np.float32], np.int64]):
         self.observation_space = self._box  # type: ignore[assignment]  # Box of float32
         self._service = PadService(atlas, self.config)
         self._last_info: dict[str, Any] = {}
+        self._dashboard = Dashboard(atlas.failure_volume) if render_mode == "rgb_array" else None
 
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[NDArray[np.float32], dict[str, Any]]:
         super().reset(seed=seed)
         self._last_info = self._service.start(self.np_random)
+        if self._dashboard is not None:
+            self._dashboard.start(self._last_info)
         return self._observation(), self._last_info
 
     def step(
@@ -171,6 +179,8 @@ class BrakeWearEnv(gym.Env[NDArray[np.float32], np.int64]):
             )
         info = self._service.step(bool(action == REPLACE))
         self._last_info = info
+        if self._dashboard is not None:
+            self._dashboard.record(info)
         return self._observation(), self.reward(info), False, self._service.truncated, info
 
     @staticmethod
@@ -195,13 +205,16 @@ class BrakeWearEnv(gym.Env[NDArray[np.float32], np.int64]):
         """Events the installed pad has braked."""
         return self._service.pos
 
-    def render(self) -> str | None:
+    def render(self) -> str | NDArray[np.uint8] | None:
+        if self._dashboard is not None:
+            return self._dashboard.frame()
         if self.render_mode != "ansi" or not self._last_info:
             return None
         t, svc = self._last_info["truth"], self._service
+        rul = "?" if t["rul_events"] is None else t["rul_events"]  # None without ``truth``
         return (
             f"event {svc.events_done:>8d}  pad age {svc.pos:>7d}  volume {t['volume_frac']:.3f}"
-            f"  RUL {t['rul_events']:>7d}  K {t['wear_coeff']:.3g} ({t['regime']})"
+            f"  RUL {rul:>7}  K {t['wear_coeff']:.3g} ({t['regime']})"
             f"  failures {self._last_info['failures']}  replaced {self._last_info['replaced']}"
         )
 

@@ -190,7 +190,7 @@ def test_regimes_draw_the_right_kind_of_pads(make):
         ({"costs": {"damage": -1.0}}, "damage must be >= 0"),
         ({"noise": {"temp_c": -1.0}}, "temp_c must be >= 0"),
         ({"preset": "icy"}, "preset must be one of"),
-        ({"render_mode": "human"}, "render_mode"),
+        ({"render_mode": "video"}, "render_mode"),
     ],
 )
 # gym.make warns about an unsupported render_mode before the env raises its own error.
