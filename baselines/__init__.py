@@ -1,8 +1,9 @@
 """Physics-based and data-driven RUL baselines (paper 2.2 and 2.3).
 
-``PhysicsPredictor`` (paper 2.3) needs numpy only. ``MLPPredictor`` and ``MLPConfig``
-(paper 2.2) live in :mod:`baselines.mlp`, which imports torch; they are loaded on first
-access, so ``import baselines`` stays free of torch.
+``PhysicsPredictor`` (paper 2.3) and ``WindowPredictor`` (a health index from rolling-window
+features, the data-driven model a practitioner would build) need numpy only.
+``MLPPredictor`` and ``MLPConfig`` (paper 2.2) live in :mod:`baselines.mlp`, which imports
+torch; they are loaded on first access, so ``import baselines`` stays free of torch.
 """
 
 from __future__ import annotations
@@ -10,11 +11,12 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any
 
 from baselines.physics import PhysicsPredictor
+from baselines.window import WindowConfig, WindowPredictor
 
 if TYPE_CHECKING:
     from baselines.mlp import MLPConfig, MLPPredictor
 
-__all__ = ["MLPConfig", "MLPPredictor", "PhysicsPredictor"]
+__all__ = ["MLPConfig", "MLPPredictor", "PhysicsPredictor", "WindowConfig", "WindowPredictor"]
 
 
 def __getattr__(name: str) -> Any:

@@ -1,42 +1,138 @@
-"""What the baselines read from training logs: the life of each run and the true RUL."""
+"""What the baselines read from training logs: how each run ended, its life when known, the
+true RUL, and the pad volumes measured in the workshop (README "Fleet logs").
+
+A run ends at failure when its last row has ``failed`` true; a log without the ``failed``
+column is a set of run-to-failure runs, as in paper 2.1.6. Simulated logs carry the truth
+(``rul_events``), which gives the life of a run even when it was cut short. Any other run
+was removed before failure: it survived its events, which bounds its life from below but
+is never taken as its life (:mod:`baselines._censoring`).
+"""
 
 from __future__ import annotations
+
+from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
+from baselines._censoring import FAILED, MEASURED_VOLUME
+
+F64 = NDArray[np.float64]
+
+
+@dataclass(frozen=True, eq=False)
+class TrainingRuns:
+    """How the runs of a training log ended, in order of first appearance.
+
+    Attributes:
+        names: Run ids.
+        last_event: Last logged event of each run [-].
+        life: Events from installation to failure, ``failed event + 1``; NaN for a run
+            removed before failure (censored) [-].
+        meas_run, meas_done, meas_volume: One entry per measured pad volume: the run (an
+            index into ``names``), the events completed when it was measured (``event +
+            1`` of its row) [-] and the measured volume fraction [-].
+    """
+
+    names: NDArray[np.str_]
+    last_event: NDArray[np.int64]
+    life: F64
+    meas_run: NDArray[np.intp]
+    meas_done: F64
+    meas_volume: F64
+
+    @property
+    def censored(self) -> NDArray[np.bool_]:
+        return np.isnan(self.life)
+
+    def describe(self, mask: NDArray[np.bool_], limit: int = 5) -> str:
+        """``['a', 'b', ...] (n runs)`` for the runs where ``mask`` is true."""
+        names = [str(n) for n in self.names[mask]]
+        shown = str(names[:limit])
+        if len(names) > limit:
+            shown = shown[:-1] + ", ...]"
+        return f"{shown} ({len(names)} run{'s' if len(names) != 1 else ''})"
+
+
+def training_runs(train_log: pd.DataFrame) -> TrainingRuns:
+    """How each run of a validated training log ended (see the module docstring).
+
+    Raises:
+        ValueError: An empty log.
+    """
+    if len(train_log) == 0:
+        raise ValueError("the training log has no events")
+    codes, names = pd.factorize(train_log["run_id"], sort=False)
+    event = train_log["event"].to_numpy(dtype=np.int64)
+    last_row = np.zeros(len(names), dtype=np.intp)
+    np.maximum.at(last_row, codes, np.arange(len(codes)))  # events increase within a run
+    last = event[last_row]
+    if "rul_events" in train_log:
+        life = (last + 1 + train_log["rul_events"].to_numpy(dtype=np.int64)[last_row]).astype(
+            np.float64
+        )
+    elif FAILED in train_log:
+        failed = train_log[FAILED].to_numpy(dtype=bool)[last_row]
+        life = np.where(failed, last + 1.0, np.nan)
+    else:
+        life = last + 1.0
+    if MEASURED_VOLUME in train_log:
+        v = train_log[MEASURED_VOLUME].to_numpy(dtype=np.float64)
+        rows = np.flatnonzero(~np.isnan(v))
+    else:
+        v, rows = np.empty(0), np.empty(0, dtype=np.intp)
+    return TrainingRuns(
+        names=np.asarray(names.astype(str)),
+        last_event=last,
+        life=life,
+        meas_run=codes[rows].astype(np.intp),
+        meas_done=event[rows] + 1.0,
+        meas_volume=v[rows],
+    )
+
 
 def run_lives(train_log: pd.DataFrame) -> pd.Series:
     """Events to failure of each training run (index: run_id, in order of first appearance).
 
-    With ground truth (``rul_events``) the life is ``last event + 1 + its RUL``, so a run
-    cut short still counts its whole life. Without it the run must end at failure: its
-    life is ``last event + 1``, and a ``failed`` column, when present, must mark that
-    last event.
+    Raises:
+        ValueError: An empty log, or runs removed before failure (named) whose life is
+            unknown.
+    """
+    runs = training_runs(train_log)
+    if runs.censored.any():
+        raise ValueError(
+            f"training run(s) {runs.describe(runs.censored)} do not end at failure and carry"
+            " no rul_events: their life is unknown"
+        )
+    return pd.Series(runs.life.astype(np.int64), index=pd.Index(runs.names, name="run_id"))
+
+
+def rul_targets(train_log: pd.DataFrame) -> tuple[F64, NDArray[np.bool_]]:
+    """RUL of every training event, row for row, and where it is only a lower bound.
+
+    Where the run's life is known the RUL is exact: ``rul_events``, else ``life - 1 -
+    event``. A run removed before failure after event ``c`` failed at event ``c + 1`` or
+    later, so after event ``k`` its RUL is at least ``c + 1 - k``: that bound is returned,
+    flagged True.
+    """
+    if "rul_events" in train_log:
+        return train_log["rul_events"].to_numpy(dtype=np.float64), np.zeros(len(train_log), bool)
+    runs = training_runs(train_log)
+    codes = pd.factorize(train_log["run_id"], sort=False)[0]
+    event = train_log["event"].to_numpy(dtype=np.float64)
+    censored = runs.censored[codes]
+    end = np.where(runs.censored, runs.last_event + 2.0, runs.life)[codes]
+    return end - 1.0 - event, censored
+
+
+def true_rul(train_log: pd.DataFrame) -> F64:
+    """True RUL of every training event, row for row: ``rul_events``, else life - 1 - event.
 
     Raises:
-        ValueError: An empty log, or a run that neither carries its RUL nor ends in failure.
+        ValueError: Runs removed before failure, whose RUL is unknown.
     """
-    if len(train_log) == 0:
-        raise ValueError("the training log has no events")
-    last = train_log.groupby("run_id", observed=True, sort=False).tail(1).set_index("run_id")
-    life = last["event"].astype(np.int64) + 1
-    if "rul_events" in last:
-        return (life + last["rul_events"].astype(np.int64)).rename("life")
-    if "failed" in last and not last["failed"].all():
-        bad = list(last.index[~last["failed"].to_numpy(dtype=bool)])
-        raise ValueError(
-            f"training run(s) {bad[:5]} do not end at failure and carry no rul_events: their"
-            " life is unknown"
-        )
-    return life.rename("life")
-
-
-def true_rul(train_log: pd.DataFrame) -> NDArray[np.float64]:
-    """True RUL of every training event, row for row: ``rul_events``, else life - 1 - event."""
-    if "rul_events" in train_log:
-        return train_log["rul_events"].to_numpy(dtype=np.float64)
-    lives = run_lives(train_log)
-    life = train_log["run_id"].map(lives).to_numpy(dtype=np.float64)
-    return life - 1.0 - train_log["event"].to_numpy(dtype=np.float64)
+    y, censored = rul_targets(train_log)
+    if censored.any():
+        run_lives(train_log)  # raises, naming the runs
+    return y

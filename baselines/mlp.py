@@ -8,21 +8,28 @@ is the true RUL of each training event, scaled by its training standard deviatio
 hidden layers of 20 and 10 ReLU units, one linear output, mean-squared error, Adam with a
 cosine-decaying learning rate over minibatches of the ~1e6 training events, on the CPU.
 
+Training runs removed before failure (README "Fleet logs") enter as what they are: after
+event ``k`` of a run removed after event ``c``, the RUL is at least ``c + 1 - k``, so only
+an estimate below that bound is an error (a one-sided squared loss, censored regression);
+their measured volumes are not used. The event index counts from installation, so a log
+that starts mid-life is read as it is.
+
 Deterministic for a seed: the weights are initialised and the minibatches shuffled from one
-``torch.Generator``. Saved as weights only: an ``.npz`` of the state dict (read back with
-``allow_pickle=False``) and a JSON file of the standardisation statistics and the config.
-This module is the only one of the package that imports torch.
+``torch.Generator``. Predictions run in numpy (float64) with a fixed order of summation, so
+an event's estimate is the same whatever the batch it arrives in and whatever the other
+pads of a fleet. Saved without pickle: :meth:`MLPPredictor.get_state` gives the weights as
+numpy arrays and the standardisation and config as JSON settings
+(:mod:`brake_env.prognostics.persist`). This module is the only one of the package that
+imports torch.
 """
 
 from __future__ import annotations
 
 import itertools
-import json
 import math
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import asdict, dataclass
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -31,14 +38,15 @@ import torch
 from numpy.typing import NDArray
 from torch import nn
 
-from baselines._runs import true_rul
+from baselines._fleet import SlotFleet
+from baselines._runs import rul_targets, training_runs
 from brake_env._validate import check_positive, from_dict
 from brake_env.prognostics.protocol import EventBatch, Predictor, RULEstimate
 
 F64 = NDArray[np.float64]
 FEATURES = ("event", "stop_dist_m", "energy_j", "slope_rad", "temp_c")
-FORMAT_VERSION = 1
-_PREDICT_CHUNK = 1 << 18
+STATE_VERSION = 2
+_PREDICT_CHUNK = 1 << 15
 
 
 @dataclass(frozen=True)
@@ -122,6 +130,7 @@ class MLPPredictor(Predictor):
         super().__init__()
         self.config = config or MLPConfig()
         self.net: nn.Sequential | None = None
+        self._layers: list[tuple[F64, F64]] = []  # (weight, bias) of each layer, float64
         self.x_mean: F64 | None = None
         self.x_std: F64 | None = None
         self.y_scale = 1.0
@@ -131,92 +140,124 @@ class MLPPredictor(Predictor):
 
     # ---------------------------------------------------------------- training
     def _fit(self, train_log: pd.DataFrame) -> None:
-        cfg = self.config
         t0 = time.perf_counter()
         x = features(train_log)
-        y = true_rul(train_log)
+        y, censored = rul_targets(train_log)
         if len(y) < 2:
             raise ValueError("data: the training log needs at least two events")
+        if censored.all():
+            runs = training_runs(train_log)
+            raise ValueError(
+                f"data: every training run ({runs.describe(runs.censored)}) was removed before"
+                " failure; the MLP needs runs whose life is known"
+            )
         self.x_mean = np.nanmean(x, axis=0)
         std = np.nanstd(x, axis=0)
         self.x_std = np.where(std > 0, std, 1.0)
         self.y_scale = float(np.std(y)) or 1.0
-        xs = torch.from_numpy(self._standardise(x))
+        xs = torch.from_numpy(self._standardise(x).astype(np.float32))
         ys = torch.from_numpy((y / self.y_scale).astype(np.float32))[:, None]
-
-        g = torch.Generator().manual_seed(cfg.seed)
-        threads = torch.get_num_threads()
-        torch.set_num_threads(cfg.threads)
-        try:
-            net = build_network(len(FEATURES), cfg.hidden, g)
-            opt = torch.optim.Adam(
-                net.parameters(), lr=cfg.learning_rate, weight_decay=cfg.weight_decay
-            )
-            n = len(ys)
-            steps_per_epoch = math.ceil(n / cfg.batch_size)
-            sched = torch.optim.lr_scheduler.CosineAnnealingLR(
-                opt, T_max=cfg.epochs * steps_per_epoch
-            )
-            loss_fn = nn.MSELoss()
-            self.loss_history = []
-            for _ in range(cfg.epochs):
-                perm = torch.randperm(n, generator=g)
-                total = 0.0
-                for i in range(steps_per_epoch):
-                    idx = perm[i * cfg.batch_size : (i + 1) * cfg.batch_size]
-                    opt.zero_grad(set_to_none=True)
-                    loss = loss_fn(net(xs[idx]), ys[idx])
-                    loss.backward()
-                    opt.step()
-                    sched.step()
-                    total += float(loss.detach()) * len(idx)
-                self.loss_history.append(total / n)
-                if self.progress:
-                    self.progress(1)
-        finally:
-            torch.set_num_threads(threads)
-        self.net = net.eval()
-        self.fit_seconds = time.perf_counter() - t0
-
-    def _standardise(self, x: F64) -> NDArray[np.float32]:
-        assert self.x_mean is not None and self.x_std is not None
-        z = (x - self.x_mean) / self.x_std
-        return np.nan_to_num(z, nan=0.0).astype(np.float32)  # missing reading -> the mean
-
-    # ---------------------------------------------------------------- prediction
-    def predict(self, x: F64) -> F64:
-        """RUL [events] for raw input rows (events x FEATURES), floored at 0."""
-        if self.net is None:
-            raise RuntimeError("data: call fit() or load() before predicting")
-        z = torch.from_numpy(self._standardise(np.asarray(x, dtype=np.float64)))
+        lower = torch.from_numpy(censored)[:, None] if censored.any() else None
         threads = torch.get_num_threads()
         torch.set_num_threads(self.config.threads)
         try:
-            with torch.no_grad():
-                out = [
-                    self.net(z[i : i + _PREDICT_CHUNK]) for i in range(0, len(z), _PREDICT_CHUNK)
-                ]
+            net = self._train(xs, ys, lower)
         finally:
             torch.set_num_threads(threads)
-        y = torch.cat(out).numpy()[:, 0].astype(np.float64) * self.y_scale
-        return np.maximum(y, 0.0)
+        self._set_network(net)
+        self.fit_seconds = time.perf_counter() - t0
+
+    def _train(
+        self, xs: torch.Tensor, ys: torch.Tensor, lower: torch.Tensor | None
+    ) -> nn.Sequential:
+        """Adam over shuffled minibatches; where ``lower`` is true the target is a lower
+        bound, and only an estimate below it counts as an error."""
+        cfg = self.config
+        g = torch.Generator().manual_seed(cfg.seed)
+        net = build_network(len(FEATURES), cfg.hidden, g)
+        opt = torch.optim.Adam(
+            net.parameters(), lr=cfg.learning_rate, weight_decay=cfg.weight_decay
+        )
+        n = len(ys)
+        steps_per_epoch = math.ceil(n / cfg.batch_size)
+        sched = torch.optim.lr_scheduler.CosineAnnealingLR(opt, T_max=cfg.epochs * steps_per_epoch)
+        loss_fn = nn.MSELoss()
+        self.loss_history = []
+        for _ in range(cfg.epochs):
+            perm = torch.randperm(n, generator=g)
+            total = 0.0
+            for i in range(steps_per_epoch):
+                idx = perm[i * cfg.batch_size : (i + 1) * cfg.batch_size]
+                opt.zero_grad(set_to_none=True)
+                if lower is None:
+                    loss = loss_fn(net(xs[idx]), ys[idx])
+                else:
+                    err = net(xs[idx]) - ys[idx]
+                    loss = torch.where(lower[idx], err.clamp(max=0.0), err).square().mean()
+                loss.backward()
+                opt.step()
+                sched.step()
+                total += float(loss.detach()) * len(idx)
+            self.loss_history.append(total / n)
+            if self.progress:
+                self.progress(1)
+        return net
+
+    def _standardise(self, x: F64) -> F64:
+        assert self.x_mean is not None and self.x_std is not None
+        z = (x - self.x_mean) / self.x_std
+        return np.nan_to_num(z, nan=0.0)  # missing reading -> the mean
+
+    def _set_network(self, net: nn.Sequential) -> None:
+        self.net = net.eval()
+        lins = [m for m in net if isinstance(m, nn.Linear)]
+        self._layers = [
+            (
+                m.weight.detach().numpy().astype(np.float64),
+                m.bias.detach().numpy().astype(np.float64),
+            )
+            for m in lins
+        ]
+
+    # ---------------------------------------------------------------- prediction
+    def predict(self, x: F64) -> F64:
+        """RUL [events] for raw input rows (events x FEATURES), floored at 0.
+
+        Each row's sums run in a fixed order, so its estimate does not depend on the rows
+        it is computed with (batch sizes, other pads).
+        """
+        if not self._layers:
+            raise RuntimeError("data: call fit() or set_state() before predicting")
+        z = self._standardise(np.asarray(x, dtype=np.float64))
+        out = np.empty(len(z))
+        last = len(self._layers) - 1
+        for i in range(0, len(z), _PREDICT_CHUNK):
+            h = z[i : i + _PREDICT_CHUNK]
+            for j, (w, b) in enumerate(self._layers):
+                acc = np.repeat(b[None, :], len(h), axis=0)
+                for k in range(w.shape[1]):
+                    acc += h[:, k : k + 1] * w[:, k]
+                h = acc if j == last else np.maximum(acc, 0.0)
+            out[i : i + len(h)] = h[:, 0]
+        return np.maximum(out * self.y_scale, 0.0)
 
     def _update(self, events: EventBatch) -> RULEstimate:
         return RULEstimate(rul_mean=self.predict(features(events)))
 
-    # ---------------------------------------------------------------- files
-    def save(self, path: str | Path) -> tuple[Path, Path]:
-        """Write ``<path>.npz`` (weights) and ``<path>.json`` (config, standardisation)."""
+    def fleet(self, n_pads: int) -> MLPFleet:
+        """All pads in one forward pass over the wanted rows (an estimate is per event)."""
+        if not self._layers:
+            raise RuntimeError("data: call fit() or set_state() before making a fleet")
+        return MLPFleet(self, n_pads)
+
+    # ---------------------------------------------------------------- state
+    def get_state(self) -> tuple[dict[str, Any], dict[str, NDArray[Any]]]:
+        """Config, standardisation and training record as settings; the network's
+        ``state_dict`` as float32 arrays ``net.<name>``."""
         if self.net is None or self.x_mean is None or self.x_std is None:
             raise RuntimeError("data: nothing to save, the network is not fitted")
-        base = Path(path).with_suffix("")
-        base.parent.mkdir(parents=True, exist_ok=True)
-        weights = {k: v.detach().cpu().numpy() for k, v in self.net.state_dict().items()}
-        npz = base.with_suffix(".npz")
-        np.savez(npz, **weights)
         meta: dict[str, Any] = {
-            "format": FORMAT_VERSION,
-            "predictor": self.name,
+            "state_version": STATE_VERSION,
             "features": list(FEATURES),
             "x_mean": self.x_mean.tolist(),
             "x_std": self.x_std.tolist(),
@@ -225,34 +266,50 @@ class MLPPredictor(Predictor):
             "loss_history": self.loss_history,
             "fit_seconds": self.fit_seconds,
         }
-        js = base.with_suffix(".json")
-        js.write_text(json.dumps(meta, indent=2) + "\n")
-        return npz, js
+        arrays = {f"net.{k}": v.detach().cpu().numpy() for k, v in self.net.state_dict().items()}
+        return meta, arrays
 
-    @classmethod
-    def load(cls, path: str | Path) -> MLPPredictor:
-        """A fitted predictor from the files written by :meth:`save` (no pickle involved)."""
-        base = Path(path).with_suffix("")
-        npz, js = base.with_suffix(".npz"), base.with_suffix(".json")
-        for p in (npz, js):
-            if not p.is_file():
-                raise FileNotFoundError(f"data: no saved network at {p}")
-        meta = json.loads(js.read_text())
-        if meta.get("format") != FORMAT_VERSION or meta.get("features") != list(FEATURES):
-            raise ValueError(f"{js}: not a format-{FORMAT_VERSION} MLP file of features {FEATURES}")
+    def set_state(self, meta: Mapping[str, Any], arrays: Mapping[str, NDArray[Any]]) -> None:
+        """Rebuild the network from :meth:`get_state`'s output (no ``torch.load``)."""
+        if meta.get("state_version") != STATE_VERSION or meta.get("features") != list(FEATURES):
+            raise ValueError(
+                f"data: not a version-{STATE_VERSION} MLP state of features {list(FEATURES)}"
+            )
         cfg = from_dict(MLPConfig, {**meta["config"], "hidden": tuple(meta["config"]["hidden"])})
-        self = cls(cfg)
+        net = build_network(len(FEATURES), cfg.hidden, torch.Generator().manual_seed(0))
+        want = set(net.state_dict())
+        got = {k.removeprefix("net."): v for k, v in arrays.items() if k.startswith("net.")}
+        if set(got) != want:
+            raise ValueError(f"data: state arrays {sorted(got)} do not fit layers {sorted(want)}")
+        state = {
+            k: torch.from_numpy(np.asarray(v, dtype=np.float32).copy()) for k, v in got.items()
+        }
+        net.load_state_dict(state)  # shapes checked by torch
+        self.config = cfg
         self.x_mean = np.asarray(meta["x_mean"], dtype=np.float64)
         self.x_std = np.asarray(meta["x_std"], dtype=np.float64)
         self.y_scale = float(meta["y_scale"])
-        self.loss_history = list(meta.get("loss_history", []))
+        self.loss_history = [float(v) for v in meta.get("loss_history", [])]
         self.fit_seconds = float(meta.get("fit_seconds", 0.0))
-        net = build_network(len(FEATURES), cfg.hidden, torch.Generator().manual_seed(0))
-        with np.load(npz, allow_pickle=False) as f:
-            state = {k: torch.from_numpy(f[k]) for k in f.files}
-        net.load_state_dict(state)
-        self.net = net.eval()
-        return self
+        self._set_network(net)
+
+
+class MLPFleet(SlotFleet):
+    """The MLP for many pads: one forward pass over the wanted rows of all of them."""
+
+    def __init__(self, predictor: MLPPredictor, n_pads: int) -> None:
+        super().__init__(predictor.name, n_pads)
+        self.predictor = predictor
+
+    def _update(
+        self,
+        pads: NDArray[np.intp],
+        events: EventBatch,
+        want: NDArray[np.bool_],
+        starts: NDArray[np.intp],
+        slots: NDArray[np.intp],
+    ) -> RULEstimate:
+        return RULEstimate(rul_mean=self.predictor.predict(features(events)[want]))
 
 
 def make_mlp(atlas: object, seed: int = 0) -> MLPPredictor:

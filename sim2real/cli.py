@@ -12,6 +12,7 @@ so that parsing the command line stays fast).
 from __future__ import annotations
 
 import argparse
+import sys
 import time
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -25,7 +26,7 @@ from brake_env.data.datasets import SPLITS, DatasetSpec, write_dataset
 from brake_env.data.schema import read_event_log
 from brake_env.model.atlas import Atlas
 from brake_env.model.regime import WearRegime
-from brake_env.output import table, write_json
+from brake_env.output import table, write_json, write_text
 from sim2real.effects import Effect
 from sim2real.library import describe_library, parse_effect, registry
 
@@ -54,14 +55,16 @@ def cmd_simulate_truth(args: argparse.Namespace) -> dict[str, Any]:
         raise ValueError("--interpolate-layers is not supported together with --effect")
     out = Path(args.out)
     atlas = load_atlas(args)
-    spec = TruthSpec(dataset_spec(args), mean_gap_s=args.mean_gap_s)
+    ds_spec = dataset_spec(args)
+    spec = TruthSpec(ds_spec, mean_gap_s=args.mean_gap_s)
     t0 = time.perf_counter()
     with tqdm(desc="truth simulation", disable=args.quiet, delay=0.5) as bar:
         logs = simulate_truth(atlas.spec, effects, spec, args.seed, progress=bar.update)
     t_sim = time.perf_counter() - t0
     from brake_env.data.datasets import Dataset
 
-    write_dataset(Dataset([], logs, t_sim), out, args.format)
+    ds = Dataset([], logs, t_sim, seed=args.seed, spec=ds_spec)
+    write_dataset(ds, out, args.format, meta={"effects": [e.key for e in effects]})
     rows = [["split", "runs", "events", "life mean", "temp mean C", "stop mean m"]]
     info: dict[str, Any] = {
         "seed": args.seed,
@@ -107,12 +110,18 @@ def _config(args: argparse.Namespace) -> DiagnosisConfig:
 
 
 def cmd_diagnose(args: argparse.Namespace) -> dict[str, Any]:
+    from sim2real.preconditions import check_log
+
+    out = Path(args.out)
+    log = read_event_log(args.real)
+    # Before the heavy imports and the long work: a log it cannot use fails in seconds.
+    checked = check_log(log, _config(args), with_rul=not args.no_rul)
+    for w in checked.warnings:
+        print(f"diagnose: warning: {w}", file=sys.stderr)
     from sim2real.diagnose import diagnose
     from sim2real.report import write_outputs
     from sim2real.rul import rul_scorer
 
-    out = Path(args.out)
-    log = read_event_log(args.real)
     atlas = Atlas.load(args.model) if args.model else load_atlas(args)
     cands = None
     if args.candidates:
@@ -133,9 +142,8 @@ def cmd_diagnose(args: argparse.Namespace) -> dict[str, Any]:
             rul=None if args.no_rul else rul_scorer(atlas),
         )
     seconds = time.perf_counter() - t0
-    text = write_outputs(
-        res, out, {"seconds": seconds, "real": str(args.real), "library": describe_library()}
-    )
+    extra = {"seconds": seconds, "real": str(args.real), "library": describe_library()}
+    text = write_outputs(res, out, {**extra, "log_checks": checked.summary()})
     print(text)
     print(f"\nwrote {out}/diagnosis.json, report.md, figures/ ({seconds:.1f} s)")
     return res.summary
@@ -183,10 +191,11 @@ def cmd_validate_gap(args: argparse.Namespace) -> dict[str, Any]:
     write_json(r, out / "validation.json")
     text = validation_text(r)
     figs = validation_figures(r, out)
-    (out / "validation.md").write_text(
+    write_text(
         f"# Withheld-effect validation (seed {args.seed})\n\n```\n{text}\n```\n\n"
         + "\n".join(f"![{p.stem}]({p.name})" for p in figs)
-        + "\n"
+        + "\n",
+        out / "validation.md",
     )
     print(text)
     print(

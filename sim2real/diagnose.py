@@ -41,6 +41,7 @@ from sim2real.localise import (
 )
 from sim2real.logdata import I64, LogData, prepare_log, sample_rows
 from sim2real.padfit import fit_k
+from sim2real.preconditions import check_log
 from sim2real.quantify import RulScorer, quantify, rul_error
 from sim2real.replay import ReplayModel
 
@@ -85,6 +86,7 @@ def diagnose(
             effect (:data:`sim2real.quantify.RulScorer`, e.g. ``sim2real.rul.rul_scorer``).
     """
     cfg = config or DiagnosisConfig()
+    check_log(log, cfg, with_rul=rul is not None)  # fail in seconds, not after the replay
     rng = np.random.default_rng(seed)
     d = prepare_log(log, atlas)
     split = _split_runs(d, cfg, rng)

@@ -12,7 +12,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
-from brake_env.output import table, write_json
+from brake_env.output import atomic_path, table, write_json, write_text
 from sim2real.attribute import NONE
 from sim2real.diagnose import DiagnosisResult
 from sim2real.localise import CHANNELS, Residuals
@@ -137,7 +137,8 @@ def _map(ax: Any, res: Residuals, r: DiagnosisResult, fx: str, fy: str, ch: str)
 
 def _save(fig: Any, path: Path) -> Path:
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    with atomic_path(path) as tmp:  # the temporary name keeps the suffix: PNG
+        fig.savefig(tmp, dpi=110)
     plt.close(fig)
     return path
 
@@ -218,8 +219,9 @@ def write_outputs(r: DiagnosisResult, out: Path, extra: dict[str, Any] | None = 
     text = text_report(r)
     figs = figures(r, out / "figures")
     md = ["# Sim-to-real gap diagnosis", "", "```", text, "```", ""]
+    md += [f"Warning: {w}\n" for w in (extra or {}).get("log_checks", {}).get("warnings", [])]
     md += [f"![{p.stem}](figures/{p.name})" for p in figs]
-    (out / "report.md").write_text("\n".join(md) + "\n")
+    write_text("\n".join(md) + "\n", out / "report.md")
     return text
 
 

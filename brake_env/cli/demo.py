@@ -12,6 +12,7 @@ from typing import Any
 
 from brake_env.cli.common import add_common_args, plugins
 from brake_env.cli.simulate import add_simulation_args, cmd_atlas, cmd_simulate
+from brake_env.output import write_text
 
 
 @dataclass
@@ -55,7 +56,7 @@ def cmd_demo(args: argparse.Namespace) -> dict[str, Any]:
         ctx.results[name], section = stage(ctx)
         sections.append(section)
     report = _demo_report(atlas_info, summary, out, time.perf_counter() - t0)
-    (out / "report.md").write_text(report + "".join("\n" + s for s in sections))
+    write_text(report + "".join("\n" + s for s in sections), out / "report.md")
     print(f"\nreport: {out / 'report.md'}")
     return summary
 

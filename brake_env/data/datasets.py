@@ -4,14 +4,17 @@ Training and in-distribution (ID) test pads draw K ~ N(mu_K, sigma_K^2); the
 out-of-distribution (OOD) pads come from means shifted by -6 sigma (slow wear) and +6 sigma
 (fast wear). Each run is simulated to failure through the atlas, sensor noise is added, and
 the runs are written as event logs (README "Event-log schema") with ground-truth columns.
+A dataset directory gets a manifest, written last, that :func:`find_logs` checks.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -26,6 +29,7 @@ from brake_env.model.simulator import (
     Trajectory,
     simulate_runs,
 )
+from brake_env.output import Manifest
 
 SPLITS = ("train", "id", "ood")
 
@@ -131,6 +135,8 @@ class Dataset:
         simulate_seconds: Wall time of the coupled simulation.
         interpolate_layers: Whether adjacent layers were blended.
         route_block_events: The alternating-route block length (0: independent draws).
+        seed: The seed it was simulated with, when known (for the manifest).
+        spec: Its specification, when known (for the manifest).
     """
 
     runs: list[SimulatedRun]
@@ -138,6 +144,8 @@ class Dataset:
     simulate_seconds: float
     interpolate_layers: bool = False
     route_block_events: int = 0
+    seed: int | None = None
+    spec: DatasetSpec | None = None
 
 
 def measure(
@@ -251,35 +259,67 @@ def make_dataset(
             spec.noise,
             [np.random.default_rng(per_run[i][1]) for i in idx],
         )
-    return Dataset(runs, logs, sim_s, spec.interpolate_layers, spec.route_block_events)
+    return Dataset(runs, logs, sim_s, spec.interpolate_layers, spec.route_block_events, seed, spec)
 
 
+# ---------------------------------------------------------------------- files
 def write_dataset(
     ds: Dataset,
     out_dir: str | Path,
     formats: tuple[str, ...] = ("parquet", "csv"),
     progress: Callable[[str], object] | None = None,
+    meta: dict[str, Any] | None = None,
 ) -> list[Path]:
-    """Write each split as ``{split}.parquet`` / ``{split}.csv`` under ``out_dir``."""
+    """Write each split as ``{split}.parquet`` / ``{split}.csv`` under ``out_dir``, then
+    ``manifest.json`` (:class:`~brake_env.output.Manifest`): per file its split, rows,
+    runs, size and SHA-256, with the seed, the spec and ``meta``.
+
+    Every file is written atomically, and the manifest says "incomplete" from before the
+    first old file is replaced until the last new one is in place, so a reader refuses a
+    directory a killed writer left half old, half new. ``summary.json`` (written by the
+    caller after this) is removed as it describes the logs being replaced.
+    """
+    bad = [f for f in formats if f not in ("parquet", "csv")]
+    if bad or not formats:
+        raise ValueError(f"unknown format(s) {bad or formats}; valid are ['csv', 'parquet']")
+    spec = None if ds.spec is None else dataclasses.asdict(ds.spec)
+    manifest = Manifest.begin(out_dir, {"seed": ds.seed, "spec": spec, **(meta or {})})
+    (Path(out_dir) / "summary.json").unlink(missing_ok=True)
     paths = []
     for split, df in ds.logs.items():
+        runs = int(df["run_id"].nunique()) if "run_id" in df else 0
         for fmt in formats:
-            if fmt not in ("parquet", "csv"):
-                raise ValueError(f"unknown format {fmt!r}; valid are ['csv', 'parquet']")
-            paths.append(write_event_log(df, Path(out_dir) / f"{split}.{fmt}"))
+            path = write_event_log(df, Path(out_dir) / f"{split}.{fmt}")
+            manifest.add(path, split=split, rows=len(df), runs=runs)
+            paths.append(path)
             if progress:
-                progress(f"{split}.{fmt}")
+                progress(path.name)
+    manifest.finish()
     return paths
 
 
-def find_logs(data_dir: str | Path) -> dict[str, Path]:
-    """``{split}.parquet`` (else ``.csv``) of every split in ``data_dir``."""
+def find_logs(data_dir: str | Path, splits: tuple[str, ...] = SPLITS) -> dict[str, Path]:
+    """``{split}.parquet`` (else ``.csv``) of every split in ``data_dir`` (or of ``splits``;
+    ``find_logs(d, ("train",))["train"]`` for the training log alone).
+
+    A directory with a manifest (:func:`write_dataset`) must match it: only the files it
+    lists are used, each with its size and checksum. A directory without one holds a
+    user's own logs and is taken as it is (README "Event-log schema").
+
+    Raises:
+        FileNotFoundError: No such directory, or a split without a log.
+        ManifestError: A manifest that does not vouch for the files, naming the file.
+    """
     d = Path(data_dir)
     if not d.is_dir():
         raise FileNotFoundError(f"data directory {d}: no such directory")
+    manifest = Manifest.read(d)
     found, missing = {}, []
-    for split in SPLITS:
-        path = next((p for p in (d / f"{split}.parquet", d / f"{split}.csv") if p.is_file()), None)
+    for split in splits:
+        names = [f"{split}.parquet", f"{split}.csv"]
+        if manifest is not None:  # listed files only (missing ones are named by check)
+            names = [n for n in names if n in manifest.files]
+        path = next((d / n for n in names if manifest is not None or (d / n).is_file()), None)
         if path is None:
             missing.append(f"{split}.parquet")
         else:
@@ -289,4 +329,6 @@ def find_logs(data_dir: str | Path) -> dict[str, Path]:
             f"data directory {d}: missing {', '.join(missing)} (or .csv);"
             " write them with brakewear simulate"
         )
+    if manifest is not None:
+        manifest.check(found.values())
     return found

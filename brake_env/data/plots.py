@@ -13,14 +13,15 @@ from brake_env.data.datasets import SimulatedRun
 from brake_env.model.atlas import Atlas
 from brake_env.model.materials import friction, hardness_mpa
 from brake_env.model.physics import simulate_events
+from brake_env.output import atomic_path
 
 SPLIT_COLORS = {"train": "tab:blue", "id": "tab:green", "ood": "tab:red"}
 
 
 def _save(fig: Figure, path: str | Path) -> Path:
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110, bbox_inches="tight")
+    with atomic_path(path) as tmp:  # the temporary name keeps the suffix: PNG
+        fig.savefig(tmp, dpi=110, bbox_inches="tight")
     return path
 
 

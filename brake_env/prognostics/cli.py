@@ -24,8 +24,9 @@ from brake_env.cli.demo import DemoContext
 from brake_env.data.datasets import find_logs
 from brake_env.data.schema import read_event_log
 from brake_env.model.atlas import Atlas
-from brake_env.output import write_json
+from brake_env.output import write_json, write_text
 from brake_env.prognostics.evaluation import Evaluation, EvaluationConfig, evaluate
+from brake_env.prognostics.persist import ARRAYS, HEADER, save_predictor
 from brake_env.prognostics.protocol import Predictor
 from brake_env.prognostics.registry import make_predictor, predictor_names
 
@@ -141,7 +142,7 @@ def cmd_evaluate(args: argparse.Namespace, skip_unfittable: bool = False) -> dic
     predict_s = time.perf_counter() - t0
     for name, s in fit_s.items():
         ev.metrics["models"][name]["fit_seconds"] = s
-    saved = _save_models(predictors, out)
+    saved = _save_models(predictors, out, atlas, args.seed)
     from brake_env.prognostics.plots import plot_all  # matplotlib: only when plotting
 
     figs = plot_all(ev, out / "figures")
@@ -160,7 +161,7 @@ def cmd_evaluate(args: argparse.Namespace, skip_unfittable: bool = False) -> dic
         },
     )
     write_json(ev.metrics, out / "metrics.json")
-    (out / "table.md").write_text(_markdown_tables(ev) + "\n")
+    write_text(_markdown_tables(ev) + "\n", out / "table.md")
     _print_results(ev, out, saved)
     return {"metrics": ev.metrics, "evaluation": ev, "out": out}
 
@@ -189,12 +190,15 @@ def _predict_and_score(
         )
 
 
-def _save_models(predictors: dict[str, Predictor], out: Path) -> dict[str, list[str]]:
-    """Weights of the predictors that have any (the MLP), as files relative to ``out``."""
+def _save_models(
+    predictors: dict[str, Predictor], out: Path, atlas: Atlas, seed: int
+) -> dict[str, list[str]]:
+    """The MLP's weights as a model directory ``brakewear predict --model`` reads (no
+    pickle), its files relative to ``out``."""
     saved = {}
     if "data" in predictors:
-        npz, js = predictors["data"].save(out / "models" / "mlp")  # type: ignore[attr-defined]
-        saved["data"] = [str(npz.relative_to(out)), str(js.relative_to(out))]
+        path = save_predictor(predictors["data"], out / "models" / "data", atlas, seed=seed)
+        saved["data"] = [str((path / f).relative_to(out)) for f in (HEADER, ARRAYS)]
     return saved
 
 
@@ -217,8 +221,10 @@ def _markdown_tables(ev: Evaluation) -> str:
         + ev.table(markdown=True)
         + "\n\nMeans over runs: RMSE [events], RMSE / life, convergence event for each"
         " tolerance as a fraction of life (1 = never), relative accuracy and alpha-lambda"
-        " (alpha 0.2) at half life, PHM08 score (d in % of life), volume RMSE, mean"
-        " relative K error, interval coverage\n\n" + ev.summary_table(markdown=True)
+        " (alpha 0.2) at half life, prognostic horizon (PH, fraction of life, ProgPy's"
+        " definition), cumulative relative accuracy (CRA), monotonicity (mono), PHM08 score"
+        " (d in % of life), volume RMSE, mean relative K error, interval coverage\n\n"
+        + ev.summary_table(markdown=True)
     )
 
 

@@ -13,6 +13,7 @@ import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
+from brake_env.output import atomic_path
 from brake_env.prognostics.evaluation import Evaluation
 
 MODEL_COLORS = {
@@ -26,8 +27,8 @@ _SKIP = ("oracle",)
 
 def _save(fig: Figure, path: str | Path) -> Path:
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110, bbox_inches="tight")
+    with atomic_path(path) as tmp:  # the temporary name keeps the suffix: PNG
+        fig.savefig(tmp, dpi=110, bbox_inches="tight")
     return path
 
 

@@ -30,7 +30,9 @@ def rmse_table(metrics: dict[str, Any], markdown: bool = False) -> str:
 
 
 def summary_table(metrics: dict[str, Any], markdown: bool = False) -> str:
-    """Means over runs: RMSE, convergence (fraction of life), RA, alpha-lambda, PHM08, states."""
+    """Means over runs: RMSE, convergence (fraction of life), RA, alpha-lambda, prognostic
+    horizon (fraction of life), cumulative RA, monotonicity, PHM08, states; ``-`` for a
+    metric the results do not hold."""
     first_model = next(iter(metrics["models"].values()))
     tols = next(iter(first_model["splits"].values()))["mean"]["convergence_frac"]
     rows = [
@@ -42,6 +44,9 @@ def summary_table(metrics: dict[str, Any], markdown: bool = False) -> str:
             *(f"conv {float(t):.0%}" for t in tols),
             "RA",
             "a-l",
+            "PH",
+            "CRA",
+            "mono",
             "PHM08",
             "vol RMSE",
             "K err",
@@ -61,6 +66,9 @@ def summary_table(metrics: dict[str, Any], markdown: bool = False) -> str:
                     *(_num(mu["convergence_frac"][t], ".2f") for t in tols),
                     _num(mu["relative_accuracy"], ".2f"),
                     _num(mu["alpha_lambda"], ".1f"),
+                    _num(mu.get("prognostic_horizon_frac"), ".2f"),
+                    _num(mu.get("cumulative_relative_accuracy"), ".2f"),
+                    _num(mu.get("monotonicity"), ".2f"),
                     _num(mu["phm08"], ".3g"),
                     _num(mu.get("volume_rmse"), ".4f"),
                     _num(k["mean"] if k else None, ".3f"),

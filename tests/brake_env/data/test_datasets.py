@@ -73,3 +73,78 @@ def test_spec_validation() -> None:
     DatasetSpec(n_ood_slow=0, wear=WearRegime(2e-6, 5e-7))  # no slow OOD pads: valid
     with pytest.raises(ValueError, match="no runs"):
         DatasetSpec(n_train=0, n_id=0, n_ood_slow=0, n_ood_fast=0)
+
+
+# ---------------------------------------------------------------------- manifest
+def _dataset(tmp_path, small_atlas, seed=2, formats=("parquet", "csv")):
+    ds = make_dataset(small_atlas, SMALL, seed=seed)
+    write_dataset(ds, tmp_path, formats)
+    return ds
+
+
+def test_the_manifest_is_written_last_and_vouches_for_every_file(tmp_path, small_atlas) -> None:
+    import json
+
+    from brake_env.data.datasets import find_logs
+    from brake_env.output import sha256_file
+
+    ds = _dataset(tmp_path, small_atlas)
+    m = json.loads((tmp_path / "manifest.json").read_text())
+    assert m["complete"] is True and m["meta"]["seed"] == 2
+    assert m["meta"]["spec"]["n_train"] == SMALL.n_train
+    assert set(m["files"]) == {
+        f"{s}.{f}" for s in ("train", "id", "ood") for f in ("parquet", "csv")
+    }
+    for name, info in m["files"].items():
+        assert info["sha256"] == sha256_file(tmp_path / name)
+        assert info["rows"] == len(ds.logs[info["split"]])
+    newest = max((tmp_path / n).stat().st_mtime_ns for n in m["files"])
+    assert (tmp_path / "manifest.json").stat().st_mtime_ns >= newest
+    assert find_logs(tmp_path) == {s: tmp_path / f"{s}.parquet" for s in ("train", "id", "ood")}
+    assert not list(tmp_path.glob(".*tmp*"))  # no temporary file left
+
+
+@pytest.mark.parametrize("damage", ["cut-off", "other-run", "missing", "unfinished"])
+def test_a_cut_off_mixed_or_unfinished_directory_is_refused(tmp_path, small_atlas, damage) -> None:
+    import json
+
+    from brake_env.data.datasets import find_logs
+    from brake_env.output import ManifestError
+
+    _dataset(tmp_path / "a", small_atlas)
+    d = tmp_path / "a"
+    if damage == "cut-off":  # a file cut at a row boundary still reads as a valid log
+        text = (d / "train.csv").read_bytes()
+        (d / "train.csv").write_bytes(text[: text.rindex(b"\n", 0, len(text) - 1) + 1])
+        read_event_log(d / "train.csv")
+        expect = r"train.csv: does not match manifest.json"
+    elif damage == "other-run":
+        _dataset(tmp_path / "b", small_atlas, seed=9)
+        (d / "id.parquet").write_bytes((tmp_path / "b" / "id.parquet").read_bytes())
+        expect = r"id.parquet: does not match manifest.json"
+    elif damage == "missing":
+        (d / "ood.csv").unlink()
+        expect = r"ood.csv: listed in manifest.json but missing"
+    else:  # what a writer killed between the first and the last file leaves
+        m = json.loads((d / "manifest.json").read_text())
+        (d / "manifest.json").write_text(json.dumps({**m, "complete": False}))
+        expect = r"manifest.json: the directory was being written and the write never finished"
+    with pytest.raises(ManifestError, match=expect):
+        find_logs(d)
+
+
+def test_own_logs_without_a_manifest_are_read_as_they_are(tmp_path, small_atlas) -> None:
+    from brake_env.data.datasets import find_logs
+
+    _dataset(tmp_path, small_atlas, formats=("csv",))
+    (tmp_path / "train.parquet").write_bytes(b"stale file of another run")
+    assert find_logs(tmp_path)["train"] == tmp_path / "train.csv"  # the manifest's file
+    assert find_logs(tmp_path, ("train",)) == {"train": tmp_path / "train.csv"}
+    (tmp_path / "manifest.json").unlink()
+    assert find_logs(tmp_path, ("train",))["train"] == tmp_path / "train.parquet"  # own files
+
+
+def test_rewriting_a_directory_drops_the_old_summary(tmp_path, small_atlas) -> None:
+    (tmp_path / "summary.json").write_text("{}")
+    _dataset(tmp_path, small_atlas, formats=("parquet",))
+    assert not (tmp_path / "summary.json").exists()

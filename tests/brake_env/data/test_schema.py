@@ -103,11 +103,11 @@ def test_interleaved_runs_are_fine() -> None:
         ),
         (
             lambda d: d.assign(event=d["event"].astype(float).where(d.index != 4, 1e19)),
-            r"column 'event', row 4.*expected an integer, got 1e\+19",
+            r"column 'event', row 4.*value 1e\+19 is outside the physically possible range",
         ),
         (
             lambda d: d.assign(event=[True, False, True, False, True, False]),
-            r"column 'event': expected numbers, got a boolean column",
+            r"column 'event': expected numbers, got bool values",
         ),
         (
             lambda d: d.assign(time_s=[0.0, 5.0, 4.0, 0.0, 1.0, 2.0]),
@@ -210,3 +210,121 @@ def test_parquet_problems(tmp_path) -> None:
     pq.write_table(t, tmp_path / "dup.parquet")
     with pytest.raises(EventLogError, match="duplicate column"):
         read_event_log(tmp_path / "dup.parquet")
+
+
+# ---------------------------------------------------------------------- reader gaps
+def test_every_numeric_column_has_finite_physical_bounds() -> None:
+    from brake_env.data.schema import COLUMNS
+
+    for c in COLUMNS.values():
+        if c.kind in ("int", "float"):
+            assert np.isfinite(c.lo) and np.isfinite(c.hi) and c.lo < c.hi, c.name
+
+
+@pytest.mark.parametrize("column", ["energy_j", "stop_dist_m", "speed_kmh", "time_s", "event"])
+def test_impossible_magnitudes_are_refused_by_column_and_row(tmp_path, column) -> None:
+    df = good_log().assign(time_s=np.arange(6.0))
+    df[column] = df[column].astype(float)
+    df.loc[4, column] = 1e300
+    for suffix in (".csv", ".parquet"):
+        path = write_event_log(df, tmp_path / f"log{suffix}")
+        with pytest.raises(EventLogError, match=rf"log{suffix}: column '{column}', row 4"):
+            read_event_log(path)
+
+
+def test_a_csv_that_is_not_utf8_names_the_cell(tmp_path) -> None:
+    body = HEADER + "a,0,5,48000,0.1,1e5,450,2\na,1,5,48000,0.1,1e5,4\xe950,2\n"
+    path = tmp_path / "log.csv"
+    path.write_bytes(body.encode("latin-1"))
+    with pytest.raises(
+        EventLogError, match=r"column 'temp_c', row 1 \(CSV line 3\): not UTF-8 text \(byte 0xe9"
+    ):
+        read_event_log(path)
+
+
+def test_a_directory_or_a_header_only_file_is_refused(tmp_path) -> None:
+    (tmp_path / "logs.csv").mkdir()
+    with pytest.raises(EventLogError, match="not a file"):
+        read_event_log(tmp_path / "logs.csv")
+    with pytest.raises(EventLogError, match="no rows"):
+        read_event_log(_csv(tmp_path, HEADER))
+    path = write_event_log(good_log().iloc[:0], tmp_path / "empty.parquet")
+    with pytest.raises(EventLogError, match="no rows"):
+        read_event_log(path)
+
+
+def test_a_csv_without_a_final_line_end_may_be_cut_off(tmp_path) -> None:
+    with pytest.raises(EventLogError, match="no line end, so the file may be cut off"):
+        read_event_log(_csv(tmp_path, HEADER + "a,0,5,48000,0.1,1e5,450,2"))
+
+
+def test_empty_run_ids_are_refused_in_both_formats(tmp_path) -> None:
+    df = good_log()
+    df.loc[3, "run_id"] = ""
+    with pytest.raises(EventLogError, match=r"column 'run_id', row 3 \(CSV line 5\): missing"):
+        read_event_log(write_event_log(df, tmp_path / "log.csv"))
+    with pytest.raises(EventLogError, match=r"column 'run_id', row 3: empty value"):
+        read_event_log(write_event_log(df, tmp_path / "log.parquet"))
+
+
+def test_nan_text_in_a_sensor_channel_is_a_dropout(tmp_path) -> None:
+    body = "a,0,5,48000,0.1,1e5,NaN,2\na,1,nan,48000,0.1,1e5,450, NaN \n"
+    df = read_event_log(_csv(tmp_path, HEADER + body))
+    assert np.isnan(df["temp_c"][0]) and np.isnan(df["speed_kmh"][1])
+    assert np.isnan(df["stop_dist_m"][1]) and df["temp_c"][1] == 450.0
+    with pytest.raises(EventLogError, match=r"column 'event', row 1 \(CSV line 3\).*missing"):
+        read_event_log(_csv(tmp_path, HEADER + "a,0,5,48000,0.1,1e5,450,2\na,NaN,5,1,0,1,1,1\n"))
+
+
+def test_csv_lines_count_blank_lines_and_multi_line_fields(tmp_path) -> None:
+    body = '\n"pad\none",0,5,48000,0.1,1e5,450,2\n\n"pad\none",1,5,48000,0.1,1e5,hot,2\n'
+    with pytest.raises(EventLogError, match=r"row 1 \(CSV line 6\), run 'pad\\none'"):
+        read_event_log(_csv(tmp_path, HEADER + body))
+    ok = read_event_log(_csv(tmp_path, HEADER + body.replace("hot", "451")))
+    assert ok["run_id"].tolist() == ["pad\none"] * 2 and ok["temp_c"].tolist() == [450, 451]
+
+
+def test_parquet_timestamps_and_bytes_are_not_numbers_or_names(tmp_path) -> None:
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    df = good_log().assign(time_s=pd.to_datetime(np.arange(6), unit="s"))
+    pq.write_table(pa.Table.from_pandas(df), tmp_path / "ts.parquet")
+    with pytest.raises(EventLogError, match=r"column 'time_s': Parquet type timestamp"):
+        read_event_log(tmp_path / "ts.parquet")
+    df = good_log().assign(run_id=[b"a"] * 3 + [b"b"] * 3)
+    pq.write_table(pa.Table.from_pandas(df), tmp_path / "bin.parquet")
+    with pytest.raises(EventLogError, match=r"column 'run_id': Parquet type binary"):
+        read_event_log(tmp_path / "bin.parquet")
+
+
+def test_parquet_written_here_refuses_flipped_bits(tmp_path) -> None:
+    """Page CRCs and the footer checksum: of 200 single-bit flips none reads as other data."""
+    path = write_event_log(good_log(), tmp_path / "log.parquet")
+    raw, want = path.read_bytes(), read_event_log(path)
+    rng = np.random.default_rng(0)
+    refused = 0
+    for _ in range(200):
+        b = bytearray(raw)
+        b[int(rng.integers(len(b)))] ^= 1 << int(rng.integers(8))
+        path.write_bytes(bytes(b))
+        try:
+            got = read_event_log(path)
+        except EventLogError:
+            refused += 1
+            continue
+        pd.testing.assert_frame_equal(got, want)
+    assert refused > 100
+
+
+def test_failed_marks_only_a_runs_last_event_and_volumes_are_fractions() -> None:
+    df = good_log().assign(failed=[False, True, False, False, False, True])
+    with pytest.raises(EventLogError, match=r"column 'failed', row 1, run 'a': true, but the"):
+        validate_event_log(df)
+    censored = good_log().assign(
+        failed=[False] * 6, measured_volume_frac=[np.nan, np.nan, 0.4, np.nan, np.nan, 0.7]
+    )
+    out = validate_event_log(censored)  # runs removed before failure, volumes measured
+    assert out["measured_volume_frac"].iloc[2] == 0.4
+    with pytest.raises(EventLogError, match=r"column 'measured_volume_frac', row 5"):
+        validate_event_log(censored.assign(measured_volume_frac=[np.nan] * 5 + [1.3]))

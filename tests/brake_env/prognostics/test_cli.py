@@ -45,7 +45,7 @@ def test_evaluate_writes_metrics_table_figures_and_weights(
     assert {"volume_rmse", "k_rel_error", "interval_coverage"} <= set(twin)
     assert "volume_rmse" in metrics["models"]["physics"]["splits"]["id"]["mean"]
     assert metrics["models"]["oracle"]["splits"]["id"]["mean"]["rul_rmse"] == 0.0
-    assert (out / "models" / "mlp.npz").is_file() and (out / "models" / "mlp.json").is_file()
+    assert (out / "models" / "data" / "predictor.json").is_file()  # brakewear predict --model
     assert {p.name for p in (out / "figures").iterdir()} == {
         "volume_estimates.png",
         "wear_coeff_estimates.png",

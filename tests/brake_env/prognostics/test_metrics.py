@@ -30,19 +30,72 @@ def test_convergence_event_is_start_of_the_last_stretch_within_tolerance() -> No
     nan = TRUE.copy()
     nan[6] = np.nan
     assert m.convergence_event(nan, TRUE, 0.2, 10.0) == 7  # a missing estimate is a miss
-    assert m.prognostic_horizon(TRUE + err, TRUE, 0.2, 10.0) == 5.0
+
+
+def test_prognostic_horizon_starts_at_the_first_event_inside_the_band() -> None:
+    # band 0.2 * life 10 = 2 events; first inside at event 2 (true RUL 7), although the
+    # estimate leaves the band again at event 4 (the convergence event is 5).
+    err = np.array([5.0, 3.0, 0.0, 1.0, 2.5, 2.0, 1.0, 0.0, -1.0, -2.0])
+    assert m.prognostic_horizon(TRUE + err, TRUE, 0.2, 10.0) == 7.0
+    assert m.prognostic_horizon(TRUE, TRUE, 0.2, 10.0) == 9.0  # inside from event 0
+    only_at_failure = TRUE + np.r_[np.full(9, 5.0), 0.0]
+    assert m.prognostic_horizon(only_at_failure, TRUE, 0.2, 10.0) == 0.0  # true RUL 0 there
+    assert m.prognostic_horizon(TRUE + 5.0, TRUE, 0.2, 10.0) == 0.0  # never inside
+    nan_first = TRUE.copy()
+    nan_first[0] = np.nan
+    assert m.prognostic_horizon(nan_first, TRUE, 0.2, 10.0) == 8.0  # a NaN never meets it
+    with pytest.raises(ValueError, match="alpha"):
+        m.prognostic_horizon(TRUE, TRUE, 0.0, 10.0)
+
+
+def test_lambda_is_the_first_event_at_or_after_its_time() -> None:
+    assert m.lambda_index(10, 0.5) == 5  # t_lambda = 4.5 -> event 5
+    assert m.lambda_index(11, 0.5) == 5  # t_lambda = 5 exactly
+    assert m.lambda_index(11, 0.3) == 3  # 0.3 * 10 = 3.0000000000000004 in floating point
+    assert m.lambda_index(10, 0.0) == 0 and m.lambda_index(10, 1.0) == 9
+    assert m.lambda_index(1, 0.5) == 0
+    with pytest.raises(ValueError, match="lambda"):
+        m.lambda_index(10, 1.5)
 
 
 def test_relative_accuracy_and_alpha_lambda_at_half_life() -> None:
-    # lambda 0.5 of 10 events -> index round(4.5) = 4 (banker's rounding), true RUL 5.
+    # lambda 0.5 of 10 events -> event 5, true RUL 4; alpha 0.25 -> band [3, 5].
     est = TRUE.copy()
-    est[4] = 6.0
-    assert m.lambda_index(10, 0.5) == 4
-    assert m.relative_accuracy(est, TRUE, 0.5) == pytest.approx(1 - 1 / 5)
-    assert m.alpha_lambda(est, TRUE, alpha=0.2, lam=0.5)  # 6 within [4, 6]
-    est[4] = 6.5
-    assert not m.alpha_lambda(est, TRUE, alpha=0.2, lam=0.5)
+    est[5] = 5.0
+    assert m.relative_accuracy(est, TRUE, 0.5) == pytest.approx(1 - 1 / 4)
+    assert m.alpha_lambda(est, TRUE, alpha=0.25, lam=0.5)  # on the bound: inside
+    est[5] = 5.5
+    assert not m.alpha_lambda(est, TRUE, alpha=0.25, lam=0.5)
     assert math.isnan(m.relative_accuracy(TRUE, TRUE, 1.0))  # true RUL 0 at the end
+
+
+def test_cumulative_relative_accuracy_by_hand() -> None:
+    true = np.array([4.0, 3.0, 2.0, 1.0, 0.0])
+    est = np.array([5.0, 3.0, 1.0, 1.5, 7.0])
+    # RA per event: 0.75, 1, 0.5, 0.5 and undefined at true RUL 0 (left out).
+    assert m.cumulative_relative_accuracy(est, true) == pytest.approx((0.75 + 1 + 0.5 + 0.5) / 4)
+    # lambda 0.5: t_lambda = 2, events 0..2.
+    assert m.cumulative_relative_accuracy(est, true, 0.5) == pytest.approx((0.75 + 1 + 0.5) / 3)
+    assert m.cumulative_relative_accuracy(TRUE, TRUE) == 1.0
+    assert math.isnan(m.cumulative_relative_accuracy([1.0], [0.0]))  # nothing defined
+    # The same as the RA of each event, averaged.
+    rng = np.random.default_rng(0)
+    noisy = TRUE + rng.normal(0.0, 1.0, TRUE.size)
+    each = [m.relative_accuracy(noisy[: k + 1], TRUE[: k + 1], 1.0) for k in range(9)]
+    assert m.cumulative_relative_accuracy(noisy, TRUE) == pytest.approx(np.mean(each))
+
+
+def test_monotonicity_by_hand() -> None:
+    assert m.monotonicity(TRUE) == 1.0  # falls at every step
+    assert m.monotonicity(TRUE[::-1]) == 1.0  # rises at every step: the sign is dropped
+    assert m.monotonicity([5.0, 3.0, 1.0, 1.5, 7.0]) == 0.0  # -, -, +, +
+    assert m.monotonicity([5.0, 4.0, 4.0, 3.0, 2.0]) == 0.75  # -, 0, -, -
+    assert m.monotonicity(np.full(6, 3.0)) == 0.0
+    assert math.isnan(m.monotonicity([3.0]))
+    with pytest.raises(ValueError, match="NaN"):
+        m.monotonicity([3.0, np.nan])
+    with pytest.raises(ValueError, match="1-D"):
+        m.monotonicity(np.ones((2, 2)))
 
 
 def test_phm08_score_is_asymmetric() -> None:

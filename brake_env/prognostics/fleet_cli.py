@@ -1,0 +1,331 @@
+"""``brakewear fit`` and ``brakewear predict``: a predictor fitted once, run on any fleet log
+(README "Fleet logs").
+
+``fit`` fits one predictor on a training log and saves it without pickle
+(:mod:`brake_env.prognostics.persist`). ``predict`` runs a saved predictor over every pad of
+an event log (no ground truth needed; ``event`` counts from each pad's installation, so a log
+may start mid-life) and writes, per pad, the current RUL with its interval, volume and K
+where the predictor gives them and the events since installation:
+
+- ``fleet.csv`` / ``fleet.json``: one row per pad, most urgent first (standard JSON: a
+  missing value is ``null``);
+- ``traces.parquet``: the estimate after every event of every pad;
+- ``fleet.png``: RUL bars with intervals, and each pad's RUL along its events.
+
+Both check what they are given (model header, format, atlas, log columns) before the long
+work, and a channel missing for a whole pad is reported, not silently worked around.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import pandas as pd
+from tqdm import tqdm
+
+from brake_env.cli.common import add_common_args, load_atlas
+from brake_env.data.datasets import find_logs
+from brake_env.data.schema import FAILED, read_event_log
+from brake_env.model.atlas import Atlas, AtlasSpec, cached_atlas
+from brake_env.output import atomic_path, table, write_json
+from brake_env.prognostics.fleet import ESTIMATE_FIELDS, predict_runs
+from brake_env.prognostics.persist import (
+    check_atlas,
+    load_predictor,
+    read_header,
+    save_predictor,
+)
+from brake_env.prognostics.protocol import MEASURED, Predictor, iter_runs
+from brake_env.prognostics.registry import make_predictor, predictor_names
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
+TRACE_PADS = 12  # pads drawn in the figure's trace panel (the most urgent)
+
+
+def register(sub: argparse._SubParsersAction[Any]) -> None:
+    """Add ``fit`` and ``predict`` to the ``brakewear`` parser."""
+    fmt = argparse.ArgumentDefaultsHelpFormatter
+    f = sub.add_parser(
+        "fit", formatter_class=fmt, help="fit a RUL predictor on a training log and save it"
+    )
+    add_common_args(f, "out/model")
+    f.add_argument(
+        "--data",
+        required=True,
+        help="training event log (.parquet/.csv), or a brakewear simulate directory (its"
+        " train log); runs without failure are used as censored if the predictor can",
+    )
+    f.add_argument("--predictor", required=True, choices=predictor_names())
+    f.add_argument("--atlas", default=None, help="atlas .npz to use instead of the cache")
+    f.set_defaults(func=cmd_fit)
+
+    p = sub.add_parser(
+        "predict", formatter_class=fmt, help="RUL of every pad of an event log from a saved model"
+    )
+    p.add_argument("--model", required=True, help="model directory written by brakewear fit")
+    p.add_argument("--log", required=True, help="event log (.parquet/.csv), no truth needed")
+    p.add_argument("--out", default="out/predict", help="output directory")
+    p.add_argument(
+        "--atlas", default=None, help="atlas .npz (default: the model's atlas, from the cache)"
+    )
+    p.add_argument("--cache-dir", default=None, help="atlas cache (as for the other commands)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=cmd_predict)
+
+
+# ---------------------------------------------------------------------------------- fit
+def training_log_path(data: str) -> Path:
+    """The log file itself, or the train log of a ``brakewear simulate`` directory."""
+    d = Path(data)
+    if d.is_dir():  # through the manifest check: a half-rewritten directory is refused
+        return find_logs(d, ("train",))["train"]
+    if not d.exists():
+        raise FileNotFoundError(f"training log {d} does not exist")
+    return d
+
+
+def cmd_fit(args: argparse.Namespace) -> Path:
+    """``brakewear fit``: read, fit, save. The log is checked before the atlas is built."""
+    out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise ValueError(f"--out {out}: exists and is not a directory")
+    path = training_log_path(args.data)
+    log = read_event_log(path)
+    atlas = load_atlas(args)
+    pred = make_predictor(args.predictor, atlas, args.seed)
+    if type(pred).get_state is Predictor.get_state:
+        raise ValueError(f"predictor {args.predictor!r} cannot be saved (no get_state)")
+    n_runs = int(log["run_id"].nunique())
+    censored = censored_runs(log)
+    if not args.quiet:
+        print(f"fit {args.predictor} on {n_runs} runs, {len(log):,} events ...", file=sys.stderr)
+    t0 = time.perf_counter()
+    pred.fit(log)
+    fit_s = time.perf_counter() - t0
+    info = {
+        "data": str(path),
+        "runs": n_runs,
+        "events": len(log),
+        "censored_runs": censored,
+        "fit_seconds": fit_s,
+    }
+    save_predictor(pred, out, atlas, seed=args.seed, info=info)
+    meta, _ = pred.get_state()
+    learned = {k: v for k, v in meta.items() if k != "config"}  # settings are not learned
+    flat = {
+        f"{k}.{k2}": v for k, d in learned.items() if isinstance(d, dict) for k2, v in d.items()
+    }
+    flat.update((k, v) for k, v in learned.items() if not isinstance(v, dict))
+    rows = [["learned", "value"]] + [
+        [k, f"{v:.6g}" if isinstance(v, float) else str(v)]
+        for k, v in flat.items()
+        if isinstance(v, int | float | str)
+    ]
+    if len(rows) > 1:
+        print(table(rows))
+    print(
+        f"fitted {args.predictor} on {n_runs} runs ({len(censored)} censored) in"
+        f" {fit_s:.1f} s; wrote {out}/ (predictor.json, arrays.npz)"
+    )
+    return out
+
+
+def censored_runs(log: pd.DataFrame) -> list[str]:
+    """Runs whose last event is not marked ``failed`` (removed before failure); none when
+    the log has no ``failed`` column (every run then ends at failure)."""
+    if FAILED not in log:
+        return []
+    last = log.groupby("run_id", observed=True, sort=False)[FAILED].last()
+    return [str(r) for r in last.index[~last.to_numpy(dtype=bool)]]
+
+
+# ------------------------------------------------------------------------------ predict
+def cmd_predict(args: argparse.Namespace) -> pd.DataFrame:
+    """``brakewear predict``; returns the fleet table."""
+    t0 = time.perf_counter()
+    header = read_header(args.model)
+    atlas_of = _atlas_loader(header, args)  # checks the atlas hash, builds nothing yet
+    log = read_event_log(args.log)
+    out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise ValueError(f"--out {out}: exists and is not a directory")
+    missing = missing_channels(log)
+    pred = load_predictor(args.model, atlas_of())
+    traces = run_fleet(pred, log, args.quiet)
+    fleet = fleet_table(traces, missing)
+    warnings = [
+        f"pad {run}: {', '.join(ch)} missing at every event; {pred.name} cannot use"
+        f" {'them' if len(ch) > 1 else 'it'} for this pad (a predictor that needs it gives"
+        " what it learned in training: the twin its prior over K)"
+        for run, ch in missing.items()
+    ]
+    for w in warnings:
+        print(f"predict: warning: {w}", file=sys.stderr)
+    out.mkdir(parents=True, exist_ok=True)
+    _write_outputs(out, fleet, traces, pred, header, args, warnings)
+    print(table(_display_rows(fleet)))
+    print(
+        f"\n{len(fleet)} pads, {len(log):,} events in {time.perf_counter() - t0:.1f} s;"
+        f" wrote {out}/fleet.csv, fleet.json, traces.parquet, fleet.png"
+    )
+    return fleet
+
+
+def _atlas_loader(header: dict[str, Any], args: argparse.Namespace) -> Callable[[], Atlas]:
+    """A function giving the model's atlas, after checking its hash against the header."""
+    if args.atlas:
+        atlas = Atlas.load(args.atlas)
+        check_atlas(header, atlas.content_hash, args.model)
+        return lambda: atlas
+    spec = AtlasSpec.from_dict(header.get("atlas_spec") or {})
+    check_atlas(header, spec.content_hash(), args.model)
+    return lambda: cached_atlas(spec, args.cache_dir)
+
+
+def missing_channels(log: pd.DataFrame) -> dict[str, list[str]]:
+    """Run -> measured channels with no value at all in that run (empty runs left out)."""
+    nan = log[list(MEASURED)].isna()
+    allnan = nan.groupby(log["run_id"], observed=True, sort=False).all()
+    return {
+        str(run): [c for c in MEASURED if row[c]] for run, row in allnan.iterrows() if row.any()
+    }
+
+
+def run_fleet(pred: Predictor, log: pd.DataFrame, quiet: bool = True) -> pd.DataFrame:
+    """Every pad of ``log`` through ``pred`` (all at once when it has a fleet of its own,
+    :func:`~brake_env.prognostics.fleet.predict_runs`): one row per event, pads in order of
+    first appearance, with ``run_id``, ``event`` and the estimate's columns."""
+    runs = list(iter_runs(log))
+    with tqdm(total=len(log), desc="predict", unit="event", unit_scale=True, disable=quiet) as bar:
+        ests = predict_runs(pred, [ev for _, ev in runs], progress=bar.update)
+    sizes = [len(ev) for _, ev in runs]
+    names = pd.Index([r for r, _ in runs])
+    codes = np.repeat(np.arange(len(runs)), sizes)
+    frame = pd.DataFrame(
+        {
+            "run_id": pd.Categorical.from_codes(codes, names),
+            "event": np.concatenate([ev.event for _, ev in runs]),
+        }
+    )
+    for f in ESTIMATE_FIELDS:
+        if all(getattr(e, f) is not None for e in ests):  # fields the predictor gives
+            frame[f] = np.concatenate([getattr(e, f) for e in ests])
+    return frame
+
+
+def fleet_table(traces: pd.DataFrame, missing: dict[str, list[str]]) -> pd.DataFrame:
+    """One row per pad, at its last logged event, sorted by RUL (most urgent first)."""
+    g = traces.groupby("run_id", observed=True, sort=False)
+    last = g.tail(1).set_index("run_id")
+    fleet = pd.DataFrame(
+        {
+            "run_id": last.index.astype(str),
+            "events_logged": g.size().to_numpy(),
+            "first_event": g["event"].first().to_numpy(),
+            "events_since_install": last["event"].to_numpy() + 1,
+        }
+    )
+    for f in ESTIMATE_FIELDS:
+        if f in last:
+            fleet[f] = last[f].to_numpy()
+    fleet["missing_channels"] = [";".join(missing.get(r, [])) for r in fleet["run_id"]]
+    return fleet.sort_values("rul_mean", kind="stable").reset_index(drop=True)
+
+
+def _display_rows(fleet: pd.DataFrame) -> list[list[str]]:
+    def num(x: Any, spec: str) -> str:
+        return "-" if x is None or (isinstance(x, float) and math.isnan(x)) else format(x, spec)
+
+    head = ["pad", "events", "since install", "RUL", "interval", "volume", "K", "missing"]
+    rows = [head]
+    for r in fleet.to_dict("records"):
+        lo, hi = r.get("rul_lower"), r.get("rul_upper")
+        interval = "-" if lo is None else f"[{num(lo, ',.0f')}, {num(hi, ',.0f')}]"
+        rows.append(
+            [
+                r["run_id"],
+                f"{r['events_logged']:,}",
+                f"{r['events_since_install']:,}",
+                num(r["rul_mean"], ",.0f"),
+                interval,
+                num(r.get("volume_frac"), ".3f"),
+                num(r.get("wear_coeff"), ".3e"),
+                r["missing_channels"] or "-",
+            ]
+        )
+    return rows
+
+
+def _write_outputs(
+    out: Path,
+    fleet: pd.DataFrame,
+    traces: pd.DataFrame,
+    pred: Predictor,
+    header: dict[str, Any],
+    args: argparse.Namespace,
+    warnings: list[str],
+) -> None:
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    with atomic_path(out / "fleet.csv") as tmp:
+        fleet.to_csv(tmp, index=False)
+    doc = {
+        "model": str(args.model),
+        "predictor": pred.name,
+        "log": str(args.log),
+        "atlas_hash": header["atlas_hash"],
+        "interval_level": pred.interval_level,
+        "warnings": warnings,
+        "pads": [
+            {**r, "missing_channels": [c for c in r["missing_channels"].split(";") if c]}
+            for r in fleet.to_dict("records")
+        ],
+    }
+    write_json(doc, out / "fleet.json")  # standard JSON: a missing value is null
+    with atomic_path(out / "traces.parquet") as tmp:
+        pq.write_table(pa.Table.from_pandas(traces, preserve_index=False), tmp, compression="zstd")
+    with atomic_path(out / "fleet.png") as tmp:
+        plot_fleet(fleet, traces, pred.name, Path(args.log).name).savefig(tmp, dpi=100)
+
+
+def plot_fleet(fleet: pd.DataFrame, traces: pd.DataFrame, name: str, log_name: str) -> Figure:
+    """PNG of the fleet: current RUL per pad with its interval (most urgent on top), and the
+    RUL along the logged events of the most urgent pads."""
+    from matplotlib.figure import Figure  # matplotlib only when plotting (start-up time)
+
+    n = len(fleet)
+    fig = Figure(figsize=(12, max(3.5, 1.0 + 0.28 * n)), layout="constrained")
+    bars, lines = fig.subplots(1, 2, width_ratios=(1, 1.4))
+    y = np.arange(n)[::-1]
+    rul = fleet["rul_mean"].to_numpy()
+    flagged = fleet["missing_channels"].to_numpy() != ""
+    bars.barh(y, rul, color=np.where(flagged, "tab:red", "tab:green"), alpha=0.8)
+    if "rul_lower" in fleet:
+        err = np.vstack([rul - fleet["rul_lower"], fleet["rul_upper"] - rul]).clip(0)
+        bars.errorbar(rul, y, xerr=err, fmt="none", ecolor="k", capsize=2, lw=0.8)
+    pairs = zip(fleet["run_id"], fleet["missing_channels"], strict=True)
+    labels = [r + (f" (no {m})" if m else "") for r, m in pairs]
+    bars.set_yticks(y, labels, fontsize=8)
+    note = " (red: a channel missing for the whole pad)" if flagged.any() else ""
+    bars.set_xlabel("RUL now [braking events]" + note)
+    bars.set_title(f"{name}: {n} pads of {log_name}, most urgent on top")
+    for run_id in fleet["run_id"][:TRACE_PADS]:
+        t = traces[traces["run_id"] == run_id]
+        step = max(1, len(t) // 2000)
+        lines.plot(t["event"].to_numpy()[::step], t["rul_mean"].to_numpy()[::step], label=run_id)
+    lines.set_xlabel("events since installation")
+    lines.set_ylabel("RUL [braking events]")
+    lines.set_title(f"RUL along the log ({min(n, TRACE_PADS)} most urgent pads)")
+    lines.legend(fontsize=7, ncols=2)
+    lines.set_ylim(bottom=0)
+    return fig

@@ -1,0 +1,212 @@
+"""Fitted predictors on disk without pickle (README "Fleet logs").
+
+A saved predictor is a directory of two files:
+
+- ``arrays.npz``: the named numpy arrays of :meth:`Predictor.get_state`, read back with
+  ``allow_pickle=False`` (numbers and fixed-width strings only, never Python objects);
+- ``predictor.json``: the header, written last: format version, the predictor's registry
+  name and seed, the content hash and spec of the atlas it was fitted with, the package
+  version, the JSON settings of ``get_state`` and the SHA-256 of ``arrays.npz``.
+
+Each file goes to a temporary name in the directory and is renamed into place
+(:func:`brake_env.output.atomic_path`), and the
+header names the bytes of the arrays it belongs to, so a model directory whose writing was
+cut off, or that mixes the files of two fits, is refused instead of read. Loading checks the
+format version and that the atlas given is the one the predictor was fitted with, then
+rebuilds the predictor from the registry (:func:`~brake_env.prognostics.registry.make_predictor`)
+and restores its state.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import io
+import json
+import math
+import os
+import zipfile
+from collections.abc import Mapping
+from importlib.metadata import PackageNotFoundError, version
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from brake_env.model.atlas import Atlas
+from brake_env.output import atomic_path, write_text
+from brake_env.prognostics.protocol import Predictor
+from brake_env.prognostics.registry import make_predictor
+
+FORMAT = "brakewear-predictor"
+FORMAT_VERSION = 1
+HEADER = "predictor.json"
+ARRAYS = "arrays.npz"
+# dtype kinds numpy stores and reads back without pickle: bool, ints, floats, complex, text.
+_PLAIN_KINDS = frozenset("biufcUS")
+
+
+def package_version() -> str:
+    """The installed brakewear version, or ``unknown`` when run from a bare checkout."""
+    try:
+        return version("brakewear")
+    except PackageNotFoundError:
+        return "unknown"
+
+
+def save_predictor(
+    predictor: Predictor,
+    path: str | os.PathLike[str],
+    atlas: Atlas,
+    *,
+    seed: int = 0,
+    info: Mapping[str, Any] | None = None,
+) -> Path:
+    """Save a fitted predictor under directory ``path`` (created if needed).
+
+    Args:
+        predictor: A fitted predictor whose class implements ``get_state``.
+        path: The model directory.
+        atlas: The atlas the predictor was made and fitted with.
+        seed: The seed it was made with (``make_predictor``'s).
+        info: Anything JSON-able to keep beside, e.g. what it was fitted on.
+
+    Returns:
+        ``path``.
+
+    Raises:
+        NotImplementedError: The predictor cannot be saved.
+        ValueError: Its state is not JSON settings and plain numeric arrays.
+    """
+    path = Path(path)
+    meta, arrays = predictor.get_state()
+    for k, a in arrays.items():
+        if not isinstance(a, np.ndarray) or a.dtype.kind not in _PLAIN_KINDS:
+            what = a.dtype if isinstance(a, np.ndarray) else type(a).__name__
+            raise ValueError(
+                f"{predictor.name}: state array {k!r} is {what}; only numeric or text numpy"
+                " arrays are saved (no pickled objects)"
+            )
+    buf = io.BytesIO()
+    np.savez_compressed(buf, **arrays)  # type: ignore[arg-type]  # numpy's stub: allow_pickle
+    blob = buf.getvalue()
+    header = {
+        "format": FORMAT,
+        "format_version": FORMAT_VERSION,
+        "predictor": predictor.name,
+        "seed": int(seed),
+        "atlas_hash": atlas.content_hash,
+        "atlas_spec": atlas.spec.to_dict(),
+        "package_version": package_version(),
+        "arrays_sha256": hashlib.sha256(blob).hexdigest(),
+        "meta": _encode(dict(meta)),
+        "info": _encode(dict(info or {})),
+    }
+    try:
+        text = json.dumps(header, indent=2, allow_nan=False) + "\n"
+    except (TypeError, ValueError) as e:
+        raise ValueError(f"{predictor.name}: state settings are not JSON ({e})") from None
+    if path.exists() and not path.is_dir():
+        raise ValueError(f"{path}: exists and is not a directory; a model is a directory")
+    path.mkdir(parents=True, exist_ok=True)
+    with atomic_path(path / ARRAYS) as tmp:
+        tmp.write_bytes(blob)
+    write_text(text, path / HEADER)  # last: it vouches for the arrays
+    return path
+
+
+def read_header(path: str | os.PathLike[str]) -> dict[str, Any]:
+    """The checked header of a saved predictor: cheap, reads no arrays.
+
+    Raises:
+        FileNotFoundError: No model directory or header at ``path``.
+        ValueError: Not a brakewear predictor, or a format this version does not read.
+    """
+    path = Path(path)
+    head = path / HEADER
+    if not path.is_dir():
+        raise FileNotFoundError(f"model {path}: no such directory (write one with brakewear fit)")
+    if not head.is_file():
+        raise FileNotFoundError(f"model {path}: no {HEADER} (not a model, or its fit was cut off)")
+    try:
+        header = json.loads(head.read_bytes())
+    except (json.JSONDecodeError, UnicodeDecodeError) as e:
+        raise ValueError(f"model {path}: {HEADER} is not valid JSON ({e})") from None
+    if not isinstance(header, dict) or header.get("format") != FORMAT:
+        raise ValueError(f"model {path}: {HEADER} is not a brakewear predictor header")
+    got = header.get("format_version")
+    if got != FORMAT_VERSION:
+        hint = "upgrade brakewear" if isinstance(got, int) and got > FORMAT_VERSION else "refit"
+        raise ValueError(
+            f"model {path}: format version {got!r}, this brakewear reads version"
+            f" {FORMAT_VERSION} ({hint})"
+        )
+    missing = [k for k in ("predictor", "atlas_hash", "arrays_sha256", "meta") if k not in header]
+    if missing:
+        raise ValueError(f"model {path}: {HEADER} lacks {missing}")
+    return header
+
+
+def check_atlas(header: Mapping[str, Any], atlas_hash: str, path: str | os.PathLike[str]) -> None:
+    """Raise ValueError naming both hashes unless the model was fitted with this atlas."""
+    if header["atlas_hash"] != atlas_hash:
+        raise ValueError(
+            f"model {path} was fitted with atlas {header['atlas_hash'][:16]}, the atlas given"
+            f" is {atlas_hash[:16]}: predict with the fit's atlas (its --atlas file or preset)"
+        )
+
+
+def load_predictor(path: str | os.PathLike[str], atlas: Atlas) -> Predictor:
+    """A predictor saved by :func:`save_predictor`, ready to ``reset`` and ``update``.
+
+    Raises:
+        FileNotFoundError: No model at ``path``.
+        ValueError: Another format version, another atlas, arrays that are not the ones
+            the header was written with, or an unknown predictor name.
+    """
+    path = Path(path)
+    header = read_header(path)
+    check_atlas(header, atlas.content_hash, path)
+    try:
+        blob = (path / ARRAYS).read_bytes()
+    except OSError as e:
+        raise ValueError(f"model {path}: cannot read {ARRAYS} ({e})") from None
+    if hashlib.sha256(blob).hexdigest() != header["arrays_sha256"]:
+        raise ValueError(
+            f"model {path}: {ARRAYS} is not the file {HEADER} was written with (an interrupted"
+            " or mixed fit); fit again"
+        )
+    try:
+        with np.load(io.BytesIO(blob), allow_pickle=False) as z:
+            arrays: dict[str, NDArray[Any]] = {k: z[k] for k in z.files}
+    except (ValueError, OSError, zipfile.BadZipFile) as e:
+        raise ValueError(f"model {path}: unreadable {ARRAYS} ({e})") from None
+    predictor = make_predictor(str(header["predictor"]), atlas, int(header.get("seed", 0)))
+    predictor.set_state(_decode(header["meta"]), arrays)
+    return predictor
+
+
+# Standard JSON has no inf or NaN; settings may hold them (a Gaussian prior has dof inf).
+_NONFINITE = "$float"
+
+
+def _encode(x: Any) -> Any:
+    if isinstance(x, float) and not math.isfinite(x):
+        return {_NONFINITE: repr(x)}
+    if isinstance(x, dict):
+        return {str(k): _encode(v) for k, v in x.items()}
+    if isinstance(x, list | tuple):
+        return [_encode(v) for v in x]
+    if isinstance(x, np.generic):
+        return _encode(x.item())
+    return x
+
+
+def _decode(x: Any) -> Any:
+    if isinstance(x, dict):
+        if set(x) == {_NONFINITE}:
+            return float(x[_NONFINITE])
+        return {k: _decode(v) for k, v in x.items()}
+    if isinstance(x, list):
+        return [_decode(v) for v in x]
+    return x
