@@ -1,50 +1,55 @@
 """Rank RUL predictors by the maintenance cost they lead to (the testbed's headline; README,
 "Maintenance cost by predictor").
 
-For each predictor: an RUL-threshold policy with its threshold tuned on training seeds, and
-a trained SB3 agent. Beside them: the fixed-interval policy with its interval tuned,
-replace-on-failure, and the oracle. All are evaluated on the same held-out seeds, so they
-meet the same pads under the same operating conditions (common random numbers).
-Because the decisions of a policy do not depend on the cost weights, the tuning runs also
-give the best threshold under other failure-to-planned cost ratios, and the ranking under
-each ratio follows.
-
-Episodes run seed by seed, every policy on a seed before the next seed, so the env's pad
-cache holds one seed's pads and each pad is simulated, and each predictor run over it,
-once for all policies (``RULObservation(precompute=True)``).
+For each predictor: an RUL-threshold policy on its point estimate and, where it gives an
+interval, one on its lower bound, each threshold tuned on tuning pads; and trained SB3
+agents. Beside them: the fixed-interval policy with its age tuned, replace-on-failure and
+the oracle. Every policy is evaluated on the same held-out pads (common random numbers),
+pad by pad (:mod:`agents.pad_study`, :mod:`agents.outcomes`), with paired bootstrap
+intervals over pads (:mod:`agents.bootstrap`). A rule's decisions do not depend on the cost
+weights except through tuning, so each failure-to-planned ratio of the sensitivity study
+gets its own tuned parameters; agents are priced as trained.
 """
 
 from __future__ import annotations
 
+import math
 import time
-from collections.abc import Callable, Hashable, Mapping, Sequence
-from dataclasses import asdict, dataclass, field, replace
+from collections.abc import Callable, Mapping
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import TYPE_CHECKING, Any
 
-import gymnasium as gym
 import numpy as np
 
-from agents.evaluation import CostReport, merge_reports, run_episodes, with_oracle_ratios
-from agents.policies import FixedInterval, Policy, PolicyId, ReplaceOnFailure, RULThreshold
-from agents.results import CompareResult, PolicyCost, RatioResult, Timing
+from agents import outcomes as oc
+from agents.pad_study import PadDraws, PadSet
+from agents.policies import PolicyId
+from agents.ranking import rank_policies
+from agents.results import AgentRuns, CompareResult, Timing, Tuning
+from agents.workers import Workers
 from brake_env.data.datasets import DatasetSpec, make_dataset
-from brake_env.env.brake_wear import BrakeWearEnv
-from brake_env.env.config import REGIMES, CostWeights
-from brake_env.env.wrappers import RULObservation
+from brake_env.env.config import REGIMES, CostWeights, EnvConfig
 from brake_env.model.atlas import Atlas
 from brake_env.model.regime import WearRegime
 from brake_env.prognostics.protocol import Predictor
 from brake_env.prognostics.registry import make_predictor, predictor_names
 
-Entry = tuple[Policy, gym.Env[Any, Any]]
-# progress(label, total) returns a callback advanced by 1 per episode.
+if TYPE_CHECKING:
+    from agents.learned import AgentTraining
+
+# progress(label, total) returns a callback advanced by the units done.
 Progress = Callable[[str, int], Callable[[int], object]]
-K = TypeVar("K", bound=Hashable)
 
 ORACLE = PolicyId("oracle")
 REPLACE_ON_FAILURE = PolicyId("replace-on-failure")
 FIXED_INTERVAL = PolicyId("fixed-interval")
+# Thresholds in decision intervals (0: never replace) and replacement ages in mean lives of
+# an ID pad (inf: never): geometric grids (4 and 16 a doubling, with the powers of two
+# themselves, one decision interval among them), fine enough that tuning is not limited
+# by them.
+THRESHOLDS = (0.0, *(2.0 ** (k / 4) for k in range(-16, 38)))
+AGES = (*(2.0 ** (k / 16) for k in range(-64, 25)), math.inf)
 
 
 @dataclass(frozen=True)
@@ -55,19 +60,27 @@ class CompareConfig:
         regime: Wear regime of new pads (``mixed``: half OOD by default).
         ood_share: OOD share of the mixed regime [-].
         decision_interval: Braking events per decision [events].
-        episode_events: Braking events per episode [events].
-        predictors: Predictors whose threshold policy is tuned and evaluated.
+        episode_events: Events per episode of the agents' training envs [events].
+        predictors: Predictors whose threshold policies are tuned and evaluated.
         agent_predictors: Predictors that also get a trained agent (may be empty).
         algo: ``ppo`` or ``dqn``.
         timesteps: Training steps of each agent.
+        min_timesteps: Fewer training steps than this train no agent: the report says the
+            budget is too small instead of giving a figure.
         n_train_runs: Run-to-failure pads the predictors are fitted on.
-        tune_seeds: Episodes (seeds) for tuning thresholds and the fixed interval.
-        eval_seeds: Held-out episodes every policy is evaluated on.
+        tune_pads: Tuning pads of each wear-regime label the regime draws.
+        eval_pads: Held-out pads of each label, every policy evaluated on them.
+        min_tune_pads: Fewer tuning pads in all than this tune nothing (as for agents).
         failure_ratios: Failure-to-planned cost ratios of the sensitivity study; the env's
             default weights (ratio 10) are the headline.
-        thresholds: Candidate RUL thresholds, in decision intervals.
-        fixed_intervals: Candidate replacement ages of the fixed-interval policy [events].
-        wear: Distribution of K of the training pads and of the env's new pads.
+        thresholds: Candidate RUL thresholds in decision intervals (0: never replace).
+        ages: Candidate ages of the fixed-interval policy in mean lives of an ID pad
+            (``inf``: never replace).
+        level: Confidence level of the intervals [-].
+        n_resamples: Bootstrap resamples.
+        workers: Processes that simulate pads and train agents side by side (0: all in
+            this process, in order; the same figures).
+        wear: Distribution of K of the training pads and of every studied pad.
     """
 
     regime: str = "mixed"
@@ -75,15 +88,20 @@ class CompareConfig:
     decision_interval: int = 500
     episode_events: int = 500_000
     predictors: tuple[str, ...] = field(default_factory=predictor_names)
-    agent_predictors: tuple[str, ...] = field(default_factory=predictor_names)
+    agent_predictors: tuple[str, ...] = ("twin", "oracle")
     algo: str = "ppo"
-    timesteps: int = 50_000
+    timesteps: int = 300_000
+    min_timesteps: int = 100_000
     n_train_runs: int = 10
-    tune_seeds: int = 4
-    eval_seeds: int = 8
-    failure_ratios: tuple[float, ...] = (5.0, 10.0, 50.0)
-    thresholds: tuple[float, ...] = (0, 1, 1.5, 2, 3, 4, 6, 8, 12, 16, 24, 32, 48, 64, 96)
-    fixed_intervals: tuple[int, ...] = tuple(range(30_000, 135_001, 5_000))
+    tune_pads: int = 100
+    eval_pads: int = 1000
+    min_tune_pads: int = 90
+    failure_ratios: tuple[float, ...] = (5.0, 10.0, 50.0, 200.0)
+    thresholds: tuple[float, ...] = THRESHOLDS
+    ages: tuple[float, ...] = AGES
+    level: float = 0.95
+    n_resamples: int = 4000
+    workers: int = 2
     wear: WearRegime = field(default_factory=WearRegime)
 
     def __post_init__(self) -> None:
@@ -93,15 +111,20 @@ class CompareConfig:
             bad = [p for p in group if p not in predictor_names()]
             if bad:
                 raise ValueError(f"unknown predictor(s) {bad}; valid are {list(predictor_names())}")
-        missing = [p for p in self.agent_predictors if p not in self.predictors]
-        if missing:
-            raise ValueError(f"agent predictor(s) {missing} are not among the predictors")
-        if self.tune_seeds < 1 or self.eval_seeds < 1:
-            raise ValueError("tune_seeds and eval_seeds must be >= 1")
-        if not self.thresholds or not self.fixed_intervals:
-            raise ValueError("give at least one threshold and one fixed interval")
+        for name in ("tune_pads", "eval_pads", "n_resamples", "timesteps", "n_train_runs"):
+            if getattr(self, name) < 1:
+                raise ValueError(f"{name} must be >= 1, got {getattr(self, name)}")
+        if not self.thresholds or not self.ages:
+            raise ValueError("give at least one threshold and one fixed-interval age")
+        if min(self.thresholds) < 0 or min(self.ages) <= 0:
+            raise ValueError("thresholds must be >= 0 and ages > 0")
+        if self.workers < 0:
+            raise ValueError(f"workers must be >= 0, got {self.workers}")
+        if not 0 < self.level < 1:
+            raise ValueError(f"level must be in (0, 1), got {self.level}")
         if not isinstance(self.wear, WearRegime):
             raise TypeError(f"wear must be a WearRegime, got {self.wear!r}")
+        EnvConfig.from_kwargs(**self.env_kwargs)  # validates the env's fields
 
     @property
     def env_kwargs(self) -> dict[str, Any]:
@@ -121,24 +144,8 @@ class CompareConfig:
         return d
 
 
-def evaluate_seed_major(
-    entries: Mapping[K, Entry],
-    seeds: Sequence[int],
-    progress: Callable[[int], object] | None = None,
-) -> dict[K, CostReport]:
-    """``run_episodes`` for every entry, seed by seed (cache-friendly), merged per entry.
-    Each report is named ``str(key)`` (a :class:`PolicyId`'s label)."""
-    parts: dict[K, list[CostReport]] = {k: [] for k in entries}
-    for seed in seeds:
-        for key, (policy, env) in entries.items():
-            parts[key].append(run_episodes(policy, env, [seed], str(key)))
-            if progress:
-                progress(1)
-    return {key: merge_reports(reps) for key, reps in parts.items()}
-
-
 def fit_predictors(
-    names: Sequence[str],
+    names: tuple[str, ...],
     atlas: Atlas,
     seed: int,
     n_train_runs: int,
@@ -158,40 +165,26 @@ def fit_predictors(
     return fitted, seconds
 
 
-@dataclass(frozen=True)
-class _Testbed:
-    """What the stages of one comparison share: one env (with a pad cache) seen bare and
-    through each predictor, and the seeds of the tuning and the held-out episodes."""
+STUDY_SETS = {"tune": 1, "evaluate": 2}  # seed keys of the tuning and the held-out pads
 
-    config: CompareConfig
-    base: BrakeWearEnv
-    wrapped: dict[str, RULObservation]
-    tune_seeds: tuple[int, ...]
-    eval_seeds: tuple[int, ...]
 
-    @classmethod
-    def make(
-        cls, config: CompareConfig, atlas: Atlas, predictors: Mapping[str, Predictor], seed: int
-    ) -> _Testbed:
-        base = BrakeWearEnv(atlas=atlas, cache_pads=64, **config.env_kwargs)
-        wrapped = {n: RULObservation(base, p, precompute=True) for n, p in predictors.items()}
-        tune = tuple(seed * 10_000 + 1_000 + i for i in range(config.tune_seeds))
-        held_out = tuple(seed * 10_000 + 5_000 + i for i in range(config.eval_seeds))
-        return cls(config, base, wrapped, tune, held_out)
-
-    @property
-    def costs(self) -> CostWeights:
-        return self.base.config.costs
-
-    @property
-    def ratios(self) -> tuple[float, ...]:
-        """The sensitivity study's failure-to-planned ratios and the env's own."""
-        return tuple(dict.fromkeys((*self.config.failure_ratios, self.costs.failure_to_planned)))
-
-    @property
-    def families(self) -> tuple[PolicyId, ...]:
-        """The policies whose parameter is tuned."""
-        return (*(PolicyId("threshold", n) for n in self.config.predictors), FIXED_INTERVAL)
+def study_pads(
+    config: CompareConfig,
+    atlas: Atlas,
+    predictors: Mapping[str, Predictor],
+    seed: int,
+    which: str,
+    workers: Workers | None = None,
+    progress: Progress | None = None,
+) -> PadSet:
+    """The tuning (``which="tune"``) or the held-out pads (``"evaluate"``), simulated and
+    run through every predictor once. Their seeds never overlap (and neither meets an
+    agent's training pads, drawn by the env from its own seeds)."""
+    env_config = EnvConfig.from_kwargs(**config.env_kwargs)
+    n = config.tune_pads if which == "tune" else config.eval_pads
+    draws = PadDraws.stratified(env_config.pad_regime, n, [seed, STUDY_SETS[which]])
+    bar = progress(f"{which} pads", len(draws)) if progress else None
+    return (workers or Workers(0)).collect(draws, atlas, env_config, predictors, bar)
 
 
 def run_compare(
@@ -203,157 +196,161 @@ def run_compare(
     fitted: Mapping[str, Predictor] | None = None,
     hyperparams: Mapping[str, dict[str, Any]] | None = None,
 ) -> CompareResult:
-    """Fit, tune, train and evaluate (:meth:`CompareResult.to_dict` is ``costs.json``).
+    """Fit, simulate, tune, train and evaluate (:meth:`CompareResult.to_dict` is
+    ``costs.json``).
 
     Args:
         config: What to run.
         atlas: The brake atlas.
         out_dir: Trained agents go to ``out_dir/agents/<predictor>``.
-        seed: Seeds the training pads, the agents and (offset) the tuning and evaluation
-            episodes, which never overlap.
-        progress: ``progress(label, total)`` returns a callback advanced by 1 per episode.
+        seed: Seeds the training pads, the agents, the tuning and the held-out pads.
+        progress: ``progress(label, total)`` returns a callback advanced by the units done.
         fitted: Already fitted predictors by name (fitted here when missing).
         hyperparams: Agent hyperparameters by predictor (default: the predictor's file).
     """
     t_start = time.perf_counter()
-    names = tuple(dict.fromkeys((*config.predictors, "oracle")))
+    names = tuple(dict.fromkeys((*config.predictors, *config.agent_predictors, "oracle")))
     have = dict(fitted or {})
-    todo = [n for n in names if n not in have]
+    todo = tuple(n for n in names if n not in have)
     new, fit_s = fit_predictors(todo, atlas, seed, config.n_train_runs, config.wear)
     have.update(new)
-    bed = _Testbed.make(config, atlas, {n: have[n] for n in names}, seed)
-
-    candidates = _candidates(bed)
-    tuned, tune_s = _timed(candidates, bed.tune_seeds, progress, "tune")
-    best = {r: _best(bed, tuned, r) for r in bed.ratios}
-    agents, train_s = _train_agents(config, have, atlas, Path(out_dir), seed, hyperparams)
-    entries = _evaluation_entries(bed, candidates, best, agents)
-    reports, evaluate_s = _timed(entries, bed.eval_seeds, progress, "evaluate")
-    reports = with_oracle_ratios(reports, reports[ORACLE])
-
-    default = best[bed.costs.failure_to_planned]
-    unparametrised = (*agents, REPLACE_ON_FAILURE)
-    headline = {fam: replace(reports[c], name=fam.label) for fam, c in default.items()}
-    headline.update((p, reports[p]) for p in (*unparametrised, ORACLE))
-    parameters = {fam: c.parameter for fam, c in default.items() if c.parameter is not None}
+    used = {n: have[n] for n in names}
+    t0 = time.perf_counter()
+    with Workers(config.workers) as workers:
+        tune_set = study_pads(config, atlas, used, seed, "tune", workers, progress)
+        # The agents train while the held-out pads are simulated.
+        training = _agents(config, have, atlas, Path(out_dir), seed, tune_set, workers, hyperparams)
+        eval_set = study_pads(config, atlas, used, seed, "evaluate", workers, progress)
+        pads_s = time.perf_counter() - t0
+        runs = training if isinstance(training, AgentRuns) else training.evaluate(eval_set)
+    t0 = time.perf_counter()
+    tuning = tune(config, tune_set, id_life(config, atlas))
+    tune_s = time.perf_counter() - t0
+    skipped = {**runs.skipped, **_untuned(config, tuning)}
+    t0 = time.perf_counter()
+    sensitivity = {
+        r: rank_policies(config, eval_set, tuning, runs.outcomes, r, seed) for r in ratios(config)
+    }
+    evaluate_s = time.perf_counter() - t0
+    timing = Timing(fit_s, pads_s, eval_set.seconds, tune_s, runs.seconds, evaluate_s,
+                    time.perf_counter() - t_start)  # fmt: skip
     return CompareResult(
         seed=seed,
         config=config,
-        failure_to_planned=bed.costs.failure_to_planned,
-        tune_seeds=bed.tune_seeds,
-        eval_seeds=bed.eval_seeds,
-        policies=headline,
-        parameters=parameters,
-        sensitivity={r: _ratio_result(bed, r, best[r], unparametrised, reports) for r in best},
-        tuning=tuned,
-        timing=Timing(fit_s, tune_s, train_s, evaluate_s, time.perf_counter() - t_start),
+        failure_to_planned=CostWeights().failure_to_planned,
+        tune_pads=_count(tune_set),
+        eval_pads=_count(eval_set),
+        sensitivity=sensitivity,
+        tuning=tuning,
+        skipped=skipped,
+        timing=timing,
+        learning_curves=runs.curves,
     )
 
 
-def _timed(
-    entries: Mapping[PolicyId, Entry], seeds: Sequence[int], progress: Progress | None, label: str
-) -> tuple[dict[PolicyId, CostReport], float]:
-    """:func:`evaluate_seed_major` with a progress bar named ``label``, and its seconds."""
-    t0 = time.perf_counter()
-    bar = progress(label, len(entries) * len(seeds)) if progress else None
-    return evaluate_seed_major(entries, seeds, bar), time.perf_counter() - t0
+def _untuned(config: CompareConfig, tuning: Tuning) -> dict[PolicyId, str]:
+    """The tuned families, and why they have no figure, when there were too few pads."""
+    if tuning.enough:
+        return {}
+    why = (
+        f"not tuned: {tuning.n_pads} tuning pads is too small a budget"
+        f" (it needs {config.min_tune_pads} or more)"
+    )
+    return dict.fromkeys(tuning.parameters, why)
 
 
-def _candidates(bed: _Testbed) -> dict[PolicyId, Entry]:
-    """Every threshold of every predictor and every fixed interval, to be tuned."""
-    interval = bed.config.decision_interval
-    out: dict[PolicyId, Entry] = {}
-    for n in bed.config.predictors:
-        for h in bed.config.thresholds:
-            threshold = float(h * interval)
-            out[PolicyId("threshold", n, parameter=threshold)] = (
-                RULThreshold(threshold),
-                bed.wrapped[n],
-            )
-    for age in bed.config.fixed_intervals:
-        out[replace(FIXED_INTERVAL, parameter=float(age))] = (FixedInterval(age), bed.base)
-    return out
-
-
-def _best(
-    bed: _Testbed, tuned: Mapping[PolicyId, CostReport], ratio: float
-) -> dict[PolicyId, PolicyId]:
-    """Each family's cheapest candidate on the tuning episodes at cost ratio ``ratio``
-    (the first of equals, in candidate order)."""
-    w = _weights(bed.costs, ratio)
-    return {
-        fam: min((c for c in tuned if c.family == fam), key=lambda c: tuned[c].cost_with(w))
-        for fam in bed.families
-    }
-
-
-def _train_agents(
+def _agents(
     config: CompareConfig,
     predictors: Mapping[str, Predictor],
     atlas: Atlas,
     out_dir: Path,
     seed: int,
+    curve_set: PadSet,
+    workers: Workers,
     hyperparams: Mapping[str, dict[str, Any]] | None,
-) -> tuple[dict[PolicyId, Entry], dict[str, float]]:
-    """An agent per agent predictor, trained into ``out_dir/agents/<predictor>``, with the
-    env it acts on; and the seconds each took."""
-    from agents.train import TrainedAgent, agent_env, train_agent
-
-    agents: dict[PolicyId, Entry] = {}
-    seconds: dict[str, float] = {}
-    for n in config.agent_predictors:
-        res = train_agent(
-            predictors[n],
-            atlas,
-            out_dir / "agents" / n,
-            algo=config.algo,
-            timesteps=config.timesteps,
-            seed=seed,
-            env_kwargs=config.env_kwargs,
-            hyperparams=hyperparams.get(n) if hyperparams else None,
+) -> AgentTraining | AgentRuns:
+    """The agents' training, started; or, with none to train, why (SB3 imported only if
+    one is trained)."""
+    if config.timesteps < config.min_timesteps:
+        why = (
+            f"not trained: {config.timesteps:,} steps is too small a budget"
+            f" (it needs {config.min_timesteps:,} or more to learn)"
         )
-        seconds[n] = res.seconds
-        env = agent_env(predictors[n], atlas, {**config.env_kwargs, "cache_pads": 64})
-        agents[PolicyId("agent", n, algo=config.algo)] = (TrainedAgent(res.out_dir), env)
-    return agents, seconds
+        skipped = {PolicyId("agent", n, algo=config.algo): why for n in config.agent_predictors}
+        return AgentRuns(skipped=skipped)
+    if not config.agent_predictors:
+        return AgentRuns()
+    from agents.learned import AgentTraining
+
+    used = {n: predictors[n] for n in config.agent_predictors}
+    return AgentTraining(config, used, atlas, out_dir, seed, curve_set, workers, hyperparams)
 
 
-def _evaluation_entries(
-    bed: _Testbed,
-    candidates: Mapping[PolicyId, Entry],
-    best: Mapping[float, Mapping[PolicyId, PolicyId]],
-    agents: Mapping[PolicyId, Entry],
-) -> dict[PolicyId, Entry]:
-    """What runs on the held-out episodes: each candidate that is best at some cost ratio
-    (once, however many ratios it wins), the agents, replace-on-failure and the oracle."""
-    entries = {c: candidates[c] for winners in best.values() for c in winners.values()}
-    entries.update(agents)
-    entries[REPLACE_ON_FAILURE] = (ReplaceOnFailure(), bed.base)
-    entries[ORACLE] = (RULThreshold(bed.config.decision_interval), bed.wrapped["oracle"])
-    return entries
+def ratios(config: CompareConfig) -> tuple[float, ...]:
+    """The sensitivity study's failure-to-planned ratios and the env's own."""
+    return tuple(dict.fromkeys((*config.failure_ratios, CostWeights().failure_to_planned)))
 
 
-def _ratio_result(
-    bed: _Testbed,
-    ratio: float,
-    best: Mapping[PolicyId, PolicyId],
-    unparametrised: Sequence[PolicyId],
-    reports: Mapping[PolicyId, CostReport],
-) -> RatioResult:
-    """Each family's policy tuned for ``ratio``, the agents (as trained) and
-    replace-on-failure, priced with that ratio's weights; and the predictors' ranking."""
-    w = _weights(bed.costs, ratio)
-    oracle = reports[ORACLE]
-    rows = {fam: PolicyCost.of(reports[c], w, oracle, c.parameter) for fam, c in best.items()}
-    rows.update((p, PolicyCost.of(reports[p], w, oracle, None)) for p in unparametrised)
-    ranking = sorted(
-        bed.config.predictors,
-        key=lambda n: min(r.cost_per_1000_events for p, r in rows.items() if p.predictor == n),
-    )
-    return RatioResult(ratio, oracle.cost_with(w), rows, tuple(ranking))
-
-
-def _weights(default: CostWeights, ratio: float) -> CostWeights:
+def weights(ratio: float) -> CostWeights:
+    """Cost weights of a failure-to-planned ratio (the env's own at its ratio)."""
+    default = CostWeights()
     if np.isclose(ratio, default.failure_to_planned):
         return default
     return CostWeights.with_ratio(ratio, default.planned_replacement)
+
+
+def id_life(config: CompareConfig, atlas: Atlas) -> float:
+    """Expected life of an ID pad [events], the unit of the fixed interval's candidates."""
+    from brake_env.model.wear import WearModel
+
+    return float(WearModel.from_atlas(atlas).life(config.wear.k_mean))
+
+
+def tune(config: CompareConfig, pads: PadSet, id_life: float) -> Tuning:
+    """Every candidate of every tuned family on the tuning pads, and the cheapest of each
+    family at each cost ratio. Of candidates that cost the same (no tuning pad tells them
+    apart) "never" is chosen, so a family that cannot beat replace-on-failure falls back
+    to it, else the most cautious (the highest threshold, the youngest age): held-out pads
+    may tell them apart by a failure. Too few tuning pads tune nothing
+    (:attr:`CompareConfig.min_tune_pads`).
+
+    Args:
+        config: The candidates and the cost ratios.
+        pads: The tuning pads.
+        id_life: Expected life of an ID pad [events]: the unit of the candidate ages.
+    """
+    d = config.decision_interval
+    life = id_life
+    # Candidate order: never first, then from the most cautious; argmin takes the first.
+    cautious = sorted((h * d for h in config.thresholds if h > 0), reverse=True)
+    grid = np.array([0.0, *cautious])
+    grids = {"mean": grid, "lower": grid}
+    ages = np.array([math.inf, *sorted(a * life for a in config.ages if math.isfinite(a))])
+    families: dict[PolicyId, tuple[np.ndarray, oc.Outcomes]] = {}
+    for name in config.predictors:
+        est = pads.estimates[name]
+        families[PolicyId("threshold", name)] = (
+            grids["mean"],
+            oc.threshold_outcomes(pads, est["rul_mean"], grids["mean"]),
+        )
+        if "rul_lower" in est:
+            families[PolicyId("lower-threshold", name)] = (
+                grids["lower"],
+                oc.threshold_outcomes(pads, est["rul_lower"], grids["lower"]),
+            )
+    families[FIXED_INTERVAL] = (ages, oc.fixed_interval_outcomes(pads, ages))
+    curves = {
+        r: {fam: oc.cost_per_1000(pads, out, weights(r)) for fam, (_, out) in families.items()}
+        for r in ratios(config)
+    }
+    best = {
+        r: {fam: float(families[fam][0][int(np.argmin(c))]) for fam, c in by_fam.items()}
+        for r, by_fam in curves.items()
+    }
+    enough = len(pads) >= config.min_tune_pads
+    params = {fam: grid for fam, (grid, _) in families.items()}
+    return Tuning(len(pads), enough, params, curves, best)
+
+
+def _count(pads: PadSet) -> dict[str, int]:
+    return {k: int(v.size) for k, v in pads.strata().items()}

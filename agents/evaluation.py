@@ -1,8 +1,13 @@
-"""Maintenance cost of a replacement policy on BrakeWear-v0, and its ratio to the oracle's.
+"""Maintenance cost of a replacement policy on BrakeWear-v0 episodes, and its ratio to the
+oracle's.
 
 One function evaluates any policy with SB3's ``predict`` (a rule or a trained agent) on any
 (wrapped) BrakeWear-v0 env: one episode per seed, the same seeds for every policy, so every
-policy meets the same pads under the same operating conditions.
+policy meets the same pads under the same operating conditions. Intervals are bootstrap
+intervals over episodes of the ratio of total cost to total events (paired with the
+oracle's episodes for the ratio to it), never a t-interval of per-episode ratios; with a
+few episodes they are wide, as they should be. The cost study (``brakewear compare``)
+evaluates pad by pad instead (:mod:`agents.outcomes`), over thousands of pads.
 """
 
 from __future__ import annotations
@@ -50,8 +55,7 @@ class CostReport:
         episode_failures, episode_planned: Failures and planned replacements per episode,
             so the cost under other weights follows without running again.
         ratio_to_oracle: ``cost`` over the oracle policy's cost on the same seeds, or None.
-        episode_ratio_to_oracle: The ratio per seed (each episode against the oracle's
-            episode with the same seed), for intervals.
+        ratio_to_oracle_ci95: Its paired bootstrap 95% interval over episodes, or None.
         seconds: Wall time.
     """
 
@@ -71,12 +75,15 @@ class CostReport:
     episode_planned: tuple[int, ...] = field(repr=False)
     episode_events: tuple[int, ...] = field(repr=False)
     ratio_to_oracle: float | None = None
-    episode_ratio_to_oracle: tuple[float, ...] | None = None
+    ratio_to_oracle_ci95: tuple[float, float] | None = None
     seconds: float = 0.0
 
     def interval(self, level: float = 0.95) -> tuple[float, float]:
-        """Student-t interval of the mean episode cost per 1000 events over seeds."""
-        return t_interval(self.episode_cost_per_1000_events, level)
+        """Bootstrap interval over episodes of the cost per 1000 events (total cost over
+        total events)."""
+        events = np.asarray(self.episode_events, dtype=np.float64)
+        cost = np.asarray(self.episode_cost_per_1000_events) * events / 1000.0
+        return episode_interval([cost, events], level)
 
     def cost_with(self, weights: CostWeights) -> float:
         """Cost per 1000 events under other weights (no revenue): same decisions, same pads."""
@@ -93,31 +100,34 @@ class CostReport:
         for k in ("retired", "episode_events"):
             d.pop(k)
         d["cost_per_1000_events_ci95"] = self.interval()
-        if self.episode_ratio_to_oracle is not None:
-            d["ratio_to_oracle_ci95"] = t_interval(self.episode_ratio_to_oracle)
         return d
 
 
-def ratio_per_seed(cost: NDArray[np.float64], oracle: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Cost ratio per episode; NaN where the oracle's episode cost nothing (a short episode
-    whose pads all outlived it), which has no ratio."""
-    out = np.full(cost.shape, np.nan)
-    np.divide(cost, oracle, out=out, where=oracle > 0)
-    return out
+def episode_interval(
+    sums: Sequence[NDArray[np.float64]], level: float = 0.95, seed: int = 0
+) -> tuple[float, float]:
+    """Percentile bootstrap interval over episodes (paired) of ``1000 * sum(a) / sum(b)``,
+    or of that over ``1000 * sum(c) / sum(d)`` for four per-episode arrays ``a, b, c, d``
+    (a cost ratio to the oracle). A point where every resample agrees or there is one
+    episode; it always holds the estimate and never leaves the range of the resamples."""
+    from scipy.stats import bootstrap
 
+    x = [np.asarray(v, dtype=np.float64) for v in sums]
 
-def t_interval(values: Sequence[float], level: float = 0.95) -> tuple[float, float]:
-    """Student-t interval of the mean of the finite ``values`` (a point when there is one)."""
-    x = np.asarray(values, dtype=np.float64)
-    x = x[np.isfinite(x)]
-    if x.size == 0:
-        return (float("nan"), float("nan"))
-    if x.size < 2:
-        return (float(x.mean()), float(x.mean()))
-    from scipy.stats import t as student_t
+    def stat(*v: NDArray[np.float64], axis: int = -1) -> NDArray[np.float64]:
+        r = 1000.0 * v[0].sum(axis) / v[1].sum(axis)
+        return r / (1000.0 * v[2].sum(axis) / v[3].sum(axis)) if len(v) == 4 else r
 
-    half = student_t.ppf(0.5 + level / 2, x.size - 1) * x.std(ddof=1) / np.sqrt(x.size)
-    return (float(x.mean() - half), float(x.mean() + half))
+    point = float(stat(*x))
+    if len(x[0]) < 2:
+        return (point, point)
+    rng = np.random.default_rng(seed)
+    res = bootstrap(x, stat, paired=True, vectorized=True, method="percentile",
+                    confidence_level=level, n_resamples=2000, rng=rng)  # fmt: skip
+    lo, hi = float(res.confidence_interval.low), float(res.confidence_interval.high)
+    if not (np.isfinite(lo) and np.isfinite(hi)):
+        return (point, point)
+    return (min(lo, point), max(hi, point))
 
 
 def run_episodes(
@@ -261,17 +271,22 @@ def compare_policies(
 
 
 def with_oracle_ratios(reports: Mapping[K, CostReport], oracle: CostReport) -> dict[K, CostReport]:
-    """Each report with its cost ratio to ``oracle`` (which must have run the same seeds)."""
-    base = np.asarray(oracle.episode_cost_per_1000_events)
+    """Each report with its cost ratio to ``oracle`` (which must have run the same seeds)
+    and the ratio's paired bootstrap interval over episodes."""
+
+    def sums(r: CostReport) -> list[NDArray[np.float64]]:
+        events = np.asarray(r.episode_events, dtype=np.float64)
+        return [np.asarray(r.episode_cost_per_1000_events) * events / 1000.0, events]
+
     out = {}
     for name, r in reports.items():
         if r.seeds != oracle.seeds:
             raise ValueError(f"{name} ran seeds {r.seeds}, the oracle {oracle.seeds}")
-        per_seed = ratio_per_seed(np.asarray(r.episode_cost_per_1000_events), base)
-        ratio = r.cost / oracle.cost if oracle.cost > 0 else float("nan")
-        out[name] = replace(
-            r, ratio_to_oracle=ratio, episode_ratio_to_oracle=tuple(per_seed.tolist())
-        )
+        if oracle.cost <= 0:
+            out[name] = replace(r, ratio_to_oracle=float("nan"))
+            continue
+        ci = episode_interval([*sums(r), *sums(oracle)])
+        out[name] = replace(r, ratio_to_oracle=r.cost / oracle.cost, ratio_to_oracle_ci95=ci)
     return out
 
 

@@ -47,7 +47,6 @@ class VecSettings:
         net_arch: Hidden layer widths of the policy's MLP.
         initial_replace_prob: P(replace) of the untrained PPO policy (None: SB3's 1/2).
         torch_threads: torch's threads (a tiny MLP gains nothing from more on 2 cores).
-        pad_pool: Training pads drawn from a fixed pool of this many (0: fresh pads).
     """
 
     n_envs: int = 1
@@ -56,7 +55,6 @@ class VecSettings:
     net_arch: tuple[int, ...] = (64, 64)
     initial_replace_prob: float | None = None
     torch_threads: int = 1
-    pad_pool: int = 0
 
     @classmethod
     def split(cls, table: Mapping[str, Any]) -> tuple[VecSettings, dict[str, Any]]:
@@ -70,6 +68,5 @@ class VecSettings:
             net_arch=tuple(table.get("net_arch", (64, 64))),
             initial_replace_prob=None if prob is None else float(prob),
             torch_threads=int(table.get("torch_threads", 1)),
-            pad_pool=int(table.get("pad_pool", 0)),
         )
         return settings, {k: v for k, v in table.items() if k not in names}

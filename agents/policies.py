@@ -109,7 +109,11 @@ class RULThreshold(_Rule):
         return f"RULThreshold({self.threshold_events:g})"
 
 
-PolicyKind = Literal["threshold", "agent", "fixed-interval", "replace-on-failure", "oracle"]
+PolicyKind = Literal[
+    "threshold", "lower-threshold", "agent", "fixed-interval", "replace-on-failure", "oracle"
+]
+_WITH_PREDICTOR = ("threshold", "lower-threshold", "agent")
+_TUNED = ("threshold", "lower-threshold", "fixed-interval")
 
 
 @dataclass(frozen=True)
@@ -118,13 +122,16 @@ class PolicyId:
     its :attr:`label` names it in tables, figures and ``costs.json``.
 
     Attributes:
-        kind: ``threshold`` (:class:`RULThreshold` on a predictor's estimates), ``agent``
-            (an SB3 agent trained on them), ``fixed-interval`` (:class:`FixedInterval`),
+        kind: ``threshold`` (:class:`RULThreshold` on a predictor's point estimate),
+            ``lower-threshold`` (on the lower bound of its interval), ``agent`` (an SB3
+            agent trained on its estimates), ``fixed-interval`` (:class:`FixedInterval`),
             ``replace-on-failure`` or ``oracle`` (the true RUL, one decision interval).
-        predictor: Whose RUL estimates a ``threshold`` or ``agent`` policy acts on.
+        predictor: Whose RUL estimates a threshold or agent policy acts on.
         algo: The agent's algorithm (``ppo`` or ``dqn``).
-        parameter: A tuning candidate's threshold or replacement age [events]; None for a
-            policy family (its parameter tuned) and for policies without one.
+        parameter: A tuning candidate's threshold or replacement age [events]; ``0`` for a
+            threshold and ``inf`` for an age are "never replace" (replace-on-failure, the
+            fallback every tuning may choose). None for a policy family (its parameter
+            tuned) and for policies without one.
     """
 
     kind: PolicyKind
@@ -136,7 +143,7 @@ class PolicyId:
         kinds = get_args(PolicyKind)
         if self.kind not in kinds:
             raise ValueError(f"PolicyId: kind must be one of {kinds}, got {self.kind!r}")
-        if (self.predictor is not None) != (self.kind in ("threshold", "agent")):
+        if (self.predictor is not None) != (self.kind in _WITH_PREDICTOR):
             raise ValueError(
                 "PolicyId: threshold and agent policies, and only they, have a predictor;"
                 f" got {self.predictor!r} for {self.kind}"
@@ -145,7 +152,7 @@ class PolicyId:
             raise ValueError(
                 f"PolicyId: agents, and only they, have an algo; got {self.algo!r} for {self.kind}"
             )
-        if self.parameter is not None and self.kind not in ("threshold", "fixed-interval"):
+        if self.parameter is not None and self.kind not in _TUNED:
             raise ValueError(f"PolicyId: a {self.kind} policy has no parameter")
 
     @property
@@ -154,17 +161,28 @@ class PolicyId:
         return replace(self, parameter=None)
 
     @property
+    def tuned(self) -> bool:
+        """A policy family whose parameter is tuned."""
+        return self.kind in _TUNED
+
+    @property
+    def never(self) -> bool:
+        """A candidate that never replaces (replace-on-failure)."""
+        p = self.parameter
+        return p is not None and (p == 0.0 if self.kind != "fixed-interval" else p == np.inf)
+
+    @property
     def label(self) -> str:
-        """``<predictor>/threshold``, ``<predictor>/<algo>``, ``fixed-interval``, ... and a
-        candidate's parameter after a slash: ``twin/threshold/1000``."""
-        head = {
-            "threshold": f"{self.predictor}/threshold",
-            "agent": f"{self.predictor}/{self.algo}",
-        }
-        name = head.get(self.kind, self.kind)
+        """``<predictor>/threshold``, ``<predictor>/lower-threshold``, ``<predictor>/<algo>``,
+        ``fixed-interval``, ... and a candidate's parameter after a slash:
+        ``twin/threshold/1000``, ``fixed-interval/never``."""
+        head = {"agent": f"{self.predictor}/{self.algo}"}
+        name = head.get(self.kind, f"{self.predictor}/{self.kind}" if self.predictor else self.kind)
         if self.parameter is None:
             return name
         p = self.parameter
+        if self.never:
+            return f"{name}/never"
         return f"{name}/{int(p) if float(p).is_integer() else format(p, 'g')}"
 
     def __str__(self) -> str:

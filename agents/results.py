@@ -6,78 +6,195 @@ the JSON, whose layout is described in the README ("Maintenance cost by predicto
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+import math
+from dataclasses import asdict, dataclass, field
 from typing import TYPE_CHECKING, Any
 
-from agents.evaluation import CostReport, ratio_per_seed, t_interval
+import numpy as np
+from numpy.typing import NDArray
+
 from agents.policies import PolicyId
-from brake_env.env.config import CostWeights
 
 if TYPE_CHECKING:
     from agents.compare import CompareConfig
 
+F64 = NDArray[np.float64]
+
 
 @dataclass(frozen=True)
-class PolicyCost:
-    """A policy's cost under one failure-to-planned cost ratio (a row of the sensitivity).
+class Estimate:
+    """A figure and its confidence interval (``low == high == point`` where it has none)."""
 
-    Attributes:
-        cost_per_1000_events: Cost per 1000 braking events under the ratio's weights.
-        ratio_to_oracle: That cost over the oracle's on the same episodes [-].
-        ratio_to_oracle_ci95: Student-t 95% interval of the per-episode ratio [-].
-        failures_per_100_pads: Failures per 100 pads taken off.
-        parameter: The tuned threshold or replacement age [events]; None for policies
-            without one.
-    """
-
-    cost_per_1000_events: float
-    ratio_to_oracle: float
-    ratio_to_oracle_ci95: tuple[float, float]
-    failures_per_100_pads: float
-    parameter: float | None
+    point: float
+    low: float
+    high: float
 
     @classmethod
-    def of(
-        cls, report: CostReport, weights: CostWeights, oracle: CostReport, parameter: float | None
-    ) -> PolicyCost:
-        """``report``'s decisions priced with ``weights``, against the oracle's."""
-        cost = report.cost_with(weights)
-        per_seed = ratio_per_seed(
-            report.episode_costs_with(weights), oracle.episode_costs_with(weights)
-        )
-        return cls(
-            cost_per_1000_events=cost,
-            ratio_to_oracle=cost / oracle.cost_with(weights),
-            ratio_to_oracle_ci95=t_interval(per_seed.tolist()),
-            failures_per_100_pads=report.failures_per_100_pads,
-            parameter=parameter,
-        )
+    def exact(cls, value: float) -> Estimate:
+        return cls(value, value, value)
+
+    def to_dict(self) -> dict[str, float]:
+        return {"value": self.point, "low": self.low, "high": self.high}
+
+    @property
+    def half_width(self) -> float:
+        """The larger distance from the point to a bound."""
+        return max(self.point - self.low, self.high - self.point)
+
+
+@dataclass(frozen=True)
+class PolicyRow:
+    """One policy on the held-out pads under one cost ratio.
+
+    Attributes:
+        parameter: Its tuned threshold or replacement age [events] (``0`` and ``inf`` are
+            "never replace"); None for policies without one.
+        cost_per_1000_events: Long-run cost per 1000 braking events of a fleet of the
+            regime's mix, with its interval.
+        ratio_to_oracle: That cost over the oracle's on the same pads, with its paired
+            bootstrap interval [-].
+        failures_per_100_pads: ``all`` (the regime's mix; no interval), ``id``,
+            ``ood-slow``, ``ood-fast`` and ``ood`` (Clopper-Pearson intervals; NaN where
+            the regime has no such pad).
+        mean_unused_life_frac: Mean share of its life a pad still had when taken off [-].
+        note: Why a figure reads as it does (a tuning that fell back to never replacing).
+        life_left: Each held-out pad's true RUL when it was taken off (0: a failure) [events].
+    """
+
+    parameter: float | None
+    cost_per_1000_events: Estimate
+    ratio_to_oracle: Estimate
+    failures_per_100_pads: dict[str, Estimate]
+    mean_unused_life_frac: float
+    note: str = ""
+    life_left: NDArray[np.int64] = field(default_factory=lambda: np.zeros(0, np.int64), repr=False)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "parameter": self.parameter,
+            "cost_per_1000_events": self.cost_per_1000_events.to_dict(),
+            "ratio_to_oracle": self.ratio_to_oracle.to_dict(),
+            "failures_per_100_pads": {
+                k: v.to_dict() for k, v in self.failures_per_100_pads.items()
+            },
+            "mean_unused_life_frac": self.mean_unused_life_frac,
+            "note": self.note,
+        }
+
+
+@dataclass(frozen=True)
+class Gap:
+    """The difference in cost ratio between two policies adjacent in the ranking.
+
+    Attributes:
+        cheaper, dearer: The two policies.
+        difference: The dearer's ratio to the oracle minus the cheaper's, with its paired
+            bootstrap interval [-].
+        significant: The interval excludes 0.
+    """
+
+    cheaper: PolicyId
+    dearer: PolicyId
+    difference: Estimate
+
+    @property
+    def significant(self) -> bool:
+        return self.difference.low > 0 or self.difference.high < 0
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "cheaper": self.cheaper.label,
+            "dearer": self.dearer.label,
+            "difference": self.difference.to_dict(),
+            "significant": self.significant,
+        }
 
 
 @dataclass(frozen=True)
 class RatioResult:
-    """The comparison under one failure-to-planned cost ratio, each policy family tuned for
+    """The comparison under one failure-to-planned cost ratio, each tuned family tuned for
     it (agents as trained).
 
     Attributes:
         failure_to_planned: Cost of a failure in planned replacements [-].
         oracle_cost_per_1000_events: The oracle's cost under these weights.
-        policies: Each policy family's row.
+        policies: Each policy's row, cheapest first (the ranking).
+        gaps: Each pair of policies adjacent in the ranking.
         predictor_ranking: Predictors from the cheapest best policy to the dearest.
+        ood_failure_gap: OOD failures per 100 pads of the twin's best policy minus the
+            physics predictor's, with its paired bootstrap interval (None unless both ran).
     """
 
     failure_to_planned: float
     oracle_cost_per_1000_events: float
-    policies: dict[PolicyId, PolicyCost]
+    policies: dict[PolicyId, PolicyRow]
+    gaps: tuple[Gap, ...]
     predictor_ranking: tuple[str, ...]
+    ood_failure_gap: Estimate | None = None
+
+    def best(self, predictor: str) -> PolicyId | None:
+        """The predictor's cheapest policy."""
+        return next((p for p in self.policies if p.predictor == predictor), None)
 
     def to_dict(self) -> dict[str, Any]:
         return {
             "failure_to_planned": self.failure_to_planned,
             "oracle_cost_per_1000_events": self.oracle_cost_per_1000_events,
-            "policies": {p.label: asdict(row) for p, row in self.policies.items()},
+            "ranking": [p.label for p in self.policies],
+            "policies": {p.label: row.to_dict() for p, row in self.policies.items()},
+            "gaps": [g.to_dict() for g in self.gaps],
             "predictor_ranking": list(self.predictor_ranking),
+            "ood_failure_gap_twin_minus_physics": (
+                None if self.ood_failure_gap is None else self.ood_failure_gap.to_dict()
+            ),
         }
+
+
+@dataclass(frozen=True)
+class Tuning:
+    """Every tuning candidate's cost on the tuning pads.
+
+    Attributes:
+        n_pads: Tuning pads.
+        enough: There were enough to tune on (else no tuned family is reported).
+        parameters: Each family's candidates [events], in candidate order.
+        curves: Cost ratio -> family -> each candidate's cost per 1000 events.
+        best: Cost ratio -> family -> the cheapest candidate.
+    """
+
+    n_pads: int
+    enough: bool
+    parameters: dict[PolicyId, F64]
+    curves: dict[float, dict[PolicyId, F64]]
+    best: dict[float, dict[PolicyId, float]]
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "n_pads": self.n_pads,
+            "enough": self.enough,
+            "candidates": {p.label: v.tolist() for p, v in self.parameters.items()},
+            "cost_per_1000_events": {
+                f"{r:g}": {p.label: v.tolist() for p, v in c.items()}
+                for r, c in self.curves.items()
+            },
+        }
+
+
+@dataclass(frozen=True)
+class AgentRuns:
+    """The agents of a comparison.
+
+    Attributes:
+        outcomes: Each trained agent's outcomes on the held-out pads.
+        skipped: Agents not trained, and why.
+        seconds: Training time of each [s].
+        curves: Each agent's learning curve (points of :class:`agents.learned.LearningCurve`).
+    """
+
+    outcomes: dict[PolicyId, Any] = field(default_factory=dict)
+    skipped: dict[PolicyId, str] = field(default_factory=dict)
+    seconds: dict[str, float] = field(default_factory=dict)
+    curves: dict[str, list[dict[str, float]]] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -86,13 +203,17 @@ class Timing:
 
     Attributes:
         fit_s: Fitting each predictor (those fitted here).
-        tune_s: Running the tuning candidates.
+        pads_s: Simulating the tuning and held-out pads and running the predictors.
+        held_out_s: Of that, for the held-out pads: ``simulate`` and each predictor.
+        tune_s: Evaluating the tuning candidates.
         train_s: Training each agent.
-        evaluate_s: Running every policy on the held-out episodes.
+        evaluate_s: Evaluating the policies and their intervals.
         total_s: The whole comparison.
     """
 
     fit_s: dict[str, float]
+    pads_s: float
+    held_out_s: dict[str, float]
     tune_s: float
     train_s: dict[str, float]
     evaluate_s: float
@@ -107,42 +228,75 @@ class CompareResult:
         seed: The comparison's seed.
         config: What was run.
         failure_to_planned: The env's cost ratio, the headline's.
-        tune_seeds: Episodes the thresholds and the fixed interval were tuned on.
-        eval_seeds: Held-out episodes every policy was evaluated on.
-        policies: The headline: each policy family (tuned for the env's weights), each
-            agent, replace-on-failure and the oracle, on the held-out episodes, with their
-            ratios to the oracle. Each report's ``name`` is its policy's label.
-        parameters: The tuned parameter of each headline policy family.
-        sensitivity: The comparison under each failure-to-planned ratio.
-        tuning: Each tuning candidate's report on the tuning episodes.
+        tune_pads, eval_pads: Tuning and held-out pads of each wear-regime label.
+        sensitivity: The comparison under each failure-to-planned ratio; the headline is
+            the env's ratio (:attr:`headline`).
+        tuning: Each tuning candidate's cost on the tuning pads.
+        skipped: Policies given no figure, and why (a budget too small to tune or train).
         timing: Wall time of each stage.
+        learning_curves: Each agent's learning curve, by its predictor.
     """
 
     seed: int
     config: CompareConfig
     failure_to_planned: float
-    tune_seeds: tuple[int, ...]
-    eval_seeds: tuple[int, ...]
-    policies: dict[PolicyId, CostReport]
-    parameters: dict[PolicyId, float]
+    tune_pads: dict[str, int]
+    eval_pads: dict[str, int]
     sensitivity: dict[float, RatioResult]
-    tuning: dict[PolicyId, CostReport]
+    tuning: Tuning
+    skipped: dict[PolicyId, str]
     timing: Timing
+    learning_curves: dict[str, list[dict[str, float]]] = field(default_factory=dict)
+
+    @property
+    def headline(self) -> RatioResult:
+        return self.sensitivity[self.failure_to_planned]
 
     def to_dict(self) -> dict[str, Any]:
-        """The content of ``costs.json`` (NaN left in; the writer turns it into null)."""
+        """The content of ``costs.json`` (NaN and inf left in; the writer makes them null)."""
+        head = self.headline
         return {
             "seed": self.seed,
             "config": self.config.to_dict(),
             "failure_to_planned": self.failure_to_planned,
-            "tune_seeds": list(self.tune_seeds),
-            "eval_seeds": list(self.eval_seeds),
-            "tuned_parameters": {p.label: v for p, v in self.parameters.items()},
-            "policies": {
-                p.label: {**r.to_dict(), "parameter": self.parameters.get(p)}
-                for p, r in self.policies.items()
+            "pads": {"tune": self.tune_pads, "evaluate": self.eval_pads},
+            **head.to_dict(),
+            "tuned_parameters": {
+                p.label: _param(row.parameter) for p, row in head.policies.items() if p.tuned
             },
+            "skipped": {p.label: why for p, why in self.skipped.items()},
+            "targets": [t.to_dict() for t in targets(self)],
             "sensitivity": {f"{r:g}": s.to_dict() for r, s in self.sensitivity.items()},
-            "tuning": {p.label: r.cost_per_1000_events for p, r in self.tuning.items()},
+            "tuning": self.tuning.to_dict(),
             "timing_s": asdict(self.timing),
+            "learning_curves": self.learning_curves,
         }
+
+
+def _param(value: float | None) -> float | str | None:
+    return "never" if value is not None and (value == 0 or math.isinf(value)) else value
+
+
+@dataclass(frozen=True)
+class Target:
+    """One target of ``brakewear compare`` (README "Maintenance cost by predictor").
+
+    Attributes:
+        name: What is aimed at.
+        measured: What was measured, in words and figures.
+        met: Whether it was met (None: not measured in this run).
+    """
+
+    name: str
+    measured: str
+    met: bool | None
+
+    def to_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+
+def targets(result: CompareResult) -> list[Target]:
+    """The study's targets at the headline cost ratio (see :mod:`agents.targets`)."""
+    from agents.targets import check_targets
+
+    return check_targets(result)

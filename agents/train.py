@@ -1,10 +1,14 @@
 """Train a Stable-Baselines3 agent to time pad replacement, on BrakeWear-v0 wrapped with a
 predictor's RUL estimates; save it with its observation normalisation and load it back.
 
-The agent's env is ``AgentFeatures(RULObservation(BrakeWear-v0, predictor, precompute))``
-in SB3 vector envs under ``VecNormalize``. Hyperparameters come from
-``agents/hyperparams/<predictor>.toml`` (:mod:`agents.hyperparameters`). torch and SB3 are
-imported by the functions that use them, so importing this module stays light.
+The agent's env is ``AgentFeatures(RULObservation(BrakeWear-v0, predictor))`` (age and RUL
+estimates in log units of the decision interval), its reward the step's cost in planned
+replacements, in SB3 vector envs under ``VecNormalize``. Training pads stream: each is
+simulated only as far as it is used, fresh pads every time (no pool). Hyperparameters come
+from ``agents/hyperparams/<predictor>.toml`` (:mod:`agents.hyperparameters`). A learning
+curve (cost ratio to the oracle on a fixed set of pads against training steps) is measured
+as training goes (:class:`agents.learned.LearningCurve`); the agent kept is the best one it
+saw. torch and SB3 are imported by the functions that use them.
 """
 
 from __future__ import annotations
@@ -12,46 +16,47 @@ from __future__ import annotations
 import copy
 import json
 import time
-from collections.abc import Callable
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
-from weakref import WeakKeyDictionary
 
 import gymnasium as gym
 import numpy as np
 from numpy.typing import NDArray
 
-from agents.features import AgentFeatures
+from agents.features import AgentFeatures, CostInPlanned, rul_fields
 from agents.hyperparameters import VecSettings, check_algo, load_hyperparams
 from brake_env.env.brake_wear import BrakeWearEnv
-from brake_env.env.pads import PadLife
 from brake_env.env.wrappers import RULObservation
 from brake_env.model.atlas import Atlas
-from brake_env.prognostics.protocol import RULEstimate, RULPredictor
+from brake_env.output import write_json
+from brake_env.prognostics.protocol import Oracle, RULPredictor
 
 if TYPE_CHECKING:
     from stable_baselines3 import DQN, PPO
-    from stable_baselines3.common.callbacks import CallbackList
     from stable_baselines3.common.vec_env import VecNormalize
 
-__all__ = ["TrainResult", "TrainedAgent", "agent_env", "train_agent"]
+    from agents.learned import LearningCurve
+    from agents.pad_study import PadSet
+
+__all__ = ["TrainResult", "TrainedAgent", "agent_env", "agent_fields", "train_agent"]
+
+
+def agent_fields(predictor: RULPredictor) -> tuple[str, ...]:
+    """The estimate fields an agent on ``predictor`` sees."""
+    return rul_fields(getattr(predictor, "interval_level", None) is not None)
 
 
 def agent_env(
-    predictor: RULPredictor,
-    atlas: Atlas,
-    env_kwargs: dict[str, Any] | None = None,
-    estimate_cache: WeakKeyDictionary[PadLife, RULEstimate] | None = None,
+    predictor: RULPredictor, atlas: Atlas, env_kwargs: dict[str, Any] | None = None
 ) -> gym.Env[NDArray[np.float32], Any]:
-    """One BrakeWear-v0 as a learned agent sees it (its own copy of the fitted predictor;
-    ``estimate_cache`` shares precomputed estimates between envs of one predictor)."""
-    base = BrakeWearEnv(atlas=atlas, **(env_kwargs or {}))
-    return AgentFeatures(
-        RULObservation(
-            base, copy.deepcopy(predictor), precompute=True, estimate_cache=estimate_cache
-        )
-    )
+    """One BrakeWear-v0 as a learned agent sees it, with its own copy of the fitted
+    predictor. Only the oracle needs the true RUL (``truth``); every other predictor's env
+    simulates a pad only as far as it is used."""
+    kwargs = {**(env_kwargs or {}), "truth": isinstance(predictor, Oracle)}
+    base = BrakeWearEnv(atlas=atlas, **kwargs)
+    wrapped = RULObservation(base, copy.deepcopy(predictor), fields=agent_fields(predictor))
+    return CostInPlanned(AgentFeatures(wrapped))
 
 
 @dataclass(frozen=True)
@@ -60,10 +65,13 @@ class TrainResult:
 
     Attributes:
         out_dir: Folder with ``model.zip``, ``vecnormalize.pkl``, ``obs_normalization.npz``,
-            ``train.json``, ``checkpoints/``, ``eval/`` and TensorBoard logs in ``tb/``.
+            ``train.json``, ``learning_curve.json`` and TensorBoard logs in ``tb/``.
         predictor, algo, timesteps, seed: What was trained.
-        seconds: Wall time of ``learn`` (training, evaluation and checkpoint callbacks).
+        seconds: Wall time of ``learn`` (with the learning curve's evaluations).
         hyperparams: The hyperparameters used.
+        best_step: Training step of the agent kept (the best on the curve's pads; the last
+            one without a curve).
+        curve: The learning curve's points (empty without curve pads).
     """
 
     out_dir: str
@@ -73,6 +81,8 @@ class TrainResult:
     seed: int
     seconds: float
     hyperparams: dict[str, Any]
+    best_step: int
+    curve: list[dict[str, float]]
 
 
 def train_agent(
@@ -81,12 +91,12 @@ def train_agent(
     out_dir: str | Path,
     *,
     algo: str = "ppo",
-    timesteps: int = 100_000,
+    timesteps: int = 300_000,
     seed: int = 0,
     env_kwargs: dict[str, Any] | None = None,
     hyperparams: dict[str, Any] | None = None,
-    eval_episodes: int = 1,
-    n_evals: int = 4,
+    curve_pads: PadSet | None = None,
+    n_evals: int = 20,
     progress_bar: bool = False,
     verbose: int = 0,
 ) -> TrainResult:
@@ -95,14 +105,15 @@ def train_agent(
     Args:
         predictor: A fitted predictor; every env gets its own copy.
         atlas: The atlas of the env.
-        out_dir: Where the model, its normalisation, checkpoints and logs go.
+        out_dir: Where the model, its normalisation, the learning curve and logs go.
         algo: ``ppo`` or ``dqn``.
         timesteps: Environment steps of training (all envs together).
         seed: Seeds the algorithm and the training envs (env i gets seed + i).
         env_kwargs: BrakeWear-v0 keyword arguments.
         hyperparams: The algorithm's table; default the predictor's hyperparameter file.
-        eval_episodes: Episodes of each periodic evaluation (EvalCallback).
-        n_evals: How many evaluations and checkpoints during training.
+        curve_pads: Pads (with this predictor's and the oracle's estimates) for the
+            learning curve and the choice of the best agent; None: the last agent is kept.
+        n_evals: Points of the learning curve.
         progress_bar: Show SB3's progress bar.
         verbose: SB3 verbosity.
     """
@@ -113,89 +124,62 @@ def train_agent(
         raise ValueError(f"timesteps must be >= 1, got {timesteps}")
     hp = dict(hyperparams if hyperparams is not None else load_hyperparams(predictor.name, algo))
     settings, algo_kwargs = VecSettings.split(hp)
-    # A tiny MLP gains nothing from threads; on 2 cores they only contend with the envs.
-    torch.set_num_threads(settings.torch_threads)
-    out = Path(out_dir)
+    torch.set_num_threads(settings.torch_threads)  # a tiny MLP gains nothing from more
+    out, kwargs = Path(out_dir), env_kwargs or {}
     out.mkdir(parents=True, exist_ok=True)
-    gamma = float(algo_kwargs.get("gamma", 0.99))
-    venv, eval_venv = _vec_envs(predictor, atlas, env_kwargs or {}, settings, seed, gamma)
-    every = max(timesteps // (settings.n_envs * max(n_evals, 1)), 1)
-    callbacks = _callbacks(eval_venv, out, every, eval_episodes)
+    venv = _vec_env(predictor, atlas, kwargs, settings, seed, float(algo_kwargs.get("gamma", 0.99)))
     model = _model(algo, venv, seed, settings, algo_kwargs, out, verbose)
+    every = max(timesteps // (settings.n_envs * max(n_evals, 1)), 1)
+    curve = _curve(curve_pads, predictor, kwargs, every)
     t0 = time.perf_counter()
-    model.learn(total_timesteps=timesteps, callback=callbacks, progress_bar=progress_bar)
+    model.learn(total_timesteps=timesteps, callback=curve, progress_bar=progress_bar)
     seconds = time.perf_counter() - t0
-    result = TrainResult(str(out), predictor.name, algo, timesteps, seed, seconds, hp)
-    _save(model, venv, settings, out)
-    (out / "train.json").write_text(
-        json.dumps({**asdict(result), "env_kwargs": env_kwargs or {}}, indent=2) + "\n"
+    best_step, points = model.num_timesteps, []
+    if curve is not None:
+        best_step, points = curve.restore_best(model, venv), curve.points
+        curve.save(out / "learning_curve.json")
+    result = TrainResult(
+        str(out), predictor.name, algo, timesteps, seed, seconds, hp, best_step, points
     )
+    _save(model, venv, settings, out)
+    write_json({**asdict(result), "env_kwargs": kwargs}, out / "train.json")
     venv.close()
-    eval_venv.close()
     return result
 
 
-def _vec_envs(
+def _curve(
+    pads: PadSet | None, predictor: RULPredictor, env_kwargs: dict[str, Any], every: int
+) -> LearningCurve | None:
+    from agents.learned import LearningCurve
+
+    if pads is None:
+        return None
+    return LearningCurve(pads, predictor.name, agent_fields(predictor), env_kwargs, every)
+
+
+def _vec_env(
     predictor: RULPredictor,
     atlas: Atlas,
     env_kwargs: dict[str, Any],
     settings: VecSettings,
     seed: int,
     gamma: float,
-) -> tuple[VecNormalize, VecNormalize]:
-    """The training vector env and the evaluation env, both under VecNormalize.
-
-    Training pads come from a fixed pool (``pad_pool``; 0 = fresh pads): each is simulated
-    and run through the predictor once, shared by all training envs, which makes a slow
-    predictor (the twin: ~4e4 events/s, ~3 s a pad) affordable to train on. Evaluation
-    always meets fresh pads.
-    """
+) -> VecNormalize:
+    """The training vector env under VecNormalize: fresh streaming pads in every env."""
     from stable_baselines3.common.monitor import Monitor
     from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
 
-    train_kwargs = {**env_kwargs, "pad_pool": settings.pad_pool, "pad_pool_seed": seed}
-    shared: WeakKeyDictionary[PadLife, RULEstimate] = WeakKeyDictionary()
-
-    def maker(rank: int) -> Callable[[], gym.Env[Any, Any]]:
-        return lambda: Monitor(agent_env(predictor, atlas, train_kwargs, shared))
-
-    def eval_maker() -> gym.Env[Any, Any]:
+    def maker() -> gym.Env[Any, Any]:
         return Monitor(agent_env(predictor, atlas, env_kwargs))
 
     venv = VecNormalize(
-        DummyVecEnv([maker(i) for i in range(settings.n_envs)]),
+        DummyVecEnv([maker] * settings.n_envs),
         norm_obs=settings.norm_obs,
         norm_reward=settings.norm_reward,
         gamma=gamma,
     )
     venv.seed(seed)
-    eval_venv = VecNormalize(
-        DummyVecEnv([eval_maker]), norm_obs=settings.norm_obs, norm_reward=False, training=False
-    )
-    eval_venv.seed(seed + 10_000)
-    return venv, eval_venv
-
-
-def _callbacks(eval_venv: VecNormalize, out: Path, every: int, eval_episodes: int) -> CallbackList:
-    """Periodic evaluation (``out/eval``) and checkpoints (``out/checkpoints``)."""
-    from stable_baselines3.common.callbacks import CallbackList, CheckpointCallback, EvalCallback
-
-    return CallbackList(
-        [
-            EvalCallback(
-                eval_venv,
-                n_eval_episodes=eval_episodes,
-                eval_freq=every,
-                log_path=str(out / "eval"),
-                best_model_save_path=None,
-                deterministic=True,
-                verbose=0,
-            ),
-            CheckpointCallback(
-                save_freq=every, save_path=str(out / "checkpoints"), save_vecnormalize=True
-            ),
-        ]
-    )
+    return venv
 
 
 def _model(
@@ -231,6 +215,9 @@ def _save(model: PPO | DQN, venv: VecNormalize, settings: VecSettings, out: Path
     statistics evaluation needs, without pickle."""
     from stable_baselines3.common.running_mean_std import RunningMeanStd
 
+    from agents.persist import save_agent
+
+    save_agent(model, out, venv)  # agent.json + agent.npz: what TrainedAgent loads, no pickle
     model.save(out / "model.zip")
     venv.save(str(out / "vecnormalize.pkl"))
     rms = venv.obs_rms
@@ -248,8 +235,8 @@ def _save(model: PPO | DQN, venv: VecNormalize, settings: VecSettings, out: Path
 def _bias_first_actions(model: Any, replace_prob: float) -> None:
     """Start PPO's policy at P(replace) = ``replace_prob`` instead of 1/2.
 
-    A replacement installs a new pad, whose whole life is simulated (~40 ms), and a policy
-    that replaces every other step learns nothing but the cost of replacing; a small prior
+    A policy that replaces every other step learns nothing but the cost of replacing (and
+    a pad replaced within a few steps never shows the agent its end of life); a small prior
     on replacing is the usual fix for such a rare, expensive action.
     """
     if not 0.0 < replace_prob < 1.0:
@@ -264,23 +251,23 @@ def _bias_first_actions(model: Any, replace_prob: float) -> None:
 
 class TrainedAgent:
     """A saved agent as a policy: normalises observations with its training statistics,
-    then asks the SB3 model (deterministic by default). Acts on ``agent_env`` observations.
+    then asks the SB3 model (deterministic by default). Acts on ``agent_env`` observations,
+    one or a batch.
 
     Args:
         out_dir: A folder written by :func:`train_agent`.
     """
 
     def __init__(self, out_dir: str | Path) -> None:
-        from stable_baselines3 import DQN, PPO
+        from agents.persist import load_agent
 
         out = Path(out_dir)
         meta = json.loads((out / "train.json").read_text())
-        cls: type[PPO] | type[DQN] = PPO if meta["algo"] == "ppo" else DQN
-        self.model = cls.load(out / "model.zip", device="cpu")
-        with np.load(out / "obs_normalization.npz") as z:
-            self.mean, self.var = z["mean"], z["var"]
-            self.clip, self.eps = float(z["clip_obs"]), float(z["epsilon"])
-            self.enabled = bool(z["enabled"])
+        # agent.json + agent.npz, never the pickled model.zip (agents.persist)
+        self.model = load_agent(out)
+        norm = self.model.normalization
+        self.mean, self.var, self.clip, self.eps = norm.mean, norm.var, norm.clip_obs, norm.epsilon
+        self.enabled = norm.enabled
         self.predictor = str(meta["predictor"])
 
     def normalize(self, obs: NDArray[Any]) -> NDArray[np.float32]:

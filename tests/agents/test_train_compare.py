@@ -1,4 +1,5 @@
-"""SB3 training (tiny budgets), save/load, and the cost comparison."""
+"""SB3 training (tiny budgets), the learning curve, agents evaluated pad by pad, and the cost
+comparison end to end (``brakewear compare`` and the demo's stage on tiny budgets)."""
 
 from __future__ import annotations
 
@@ -9,10 +10,14 @@ import numpy as np
 import pytest
 import torch
 
+from agents import outcomes as oc
 from agents.cli import compare_and_report
-from agents.compare import CompareConfig
+from agents.compare import CompareConfig, fit_predictors
 from agents.hyperparameters import load_hyperparams
+from agents.learned import agent_outcomes
+from agents.pad_study import PadDraws, collect_pads
 from agents.train import TrainedAgent, agent_env, train_agent
+from brake_env.env.config import EnvConfig
 from brake_env.model.regime import WearRegime
 from brake_env.prognostics.protocol import NoPrognostics, Oracle
 
@@ -23,10 +28,17 @@ TINY = {
     "batch_size": 32,
     "n_epochs": 1,
     "net_arch": [16],
-    "pad_pool": 4,
     "initial_replace_prob": 0.05,
     "torch_threads": 1,
 }
+ARGS = argparse.Namespace(seed=0, quiet=True, preset="hot-duty", cache_dir=None, atlas=None)
+
+
+@pytest.fixture(scope="module")
+def curve_pads(atlas):
+    config = EnvConfig.from_kwargs(**FAST, regime="mixed")
+    draws = PadDraws.stratified(config.pad_regime, 2, [0, 3])
+    return collect_pads(draws, atlas, config, {"oracle": Oracle()})
 
 
 def test_hyperparameter_files_exist_for_every_predictor():
@@ -41,89 +53,150 @@ def test_training_twice_with_a_seed_gives_the_same_agent(atlas, tmp_path):
     params = []
     for run in ("a", "b"):
         train_agent(
-            Oracle(),
-            atlas,
-            tmp_path / run,
-            timesteps=128,
-            seed=3,
-            env_kwargs=FAST,
+            Oracle(), atlas, tmp_path / run, timesteps=128, seed=3, env_kwargs=FAST,
             hyperparams=TINY,
-        )
+        )  # fmt: skip
         params.append(TrainedAgent(tmp_path / run).model.policy.state_dict())
     for k, v in params[0].items():
         assert torch.equal(v, params[1][k]), k
-    out = tmp_path / "a"
-    for f in ("model.zip", "vecnormalize.pkl", "obs_normalization.npz", "train.json"):
-        assert (out / f).exists()
-    assert any((out / "tb").iterdir()) and any((out / "checkpoints").iterdir())
+    for f in ("agent.json", "agent.npz", "obs_normalization.npz", "train.json"):
+        assert (tmp_path / "a" / f).exists()
 
 
-def test_saved_agent_acts_like_the_trained_model(atlas, tmp_path):
-    from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
-
-    train_agent(Oracle(), atlas, tmp_path, timesteps=64, seed=0, env_kwargs=FAST, hyperparams=TINY)
-    agent, again = TrainedAgent(tmp_path), TrainedAgent(tmp_path)
-    venv = VecNormalize.load(
-        str(tmp_path / "vecnormalize.pkl"), DummyVecEnv([lambda: agent_env(Oracle(), atlas, FAST)])
+def test_the_learning_curve_keeps_the_best_agent(atlas, tmp_path, curve_pads):
+    res = train_agent(
+        Oracle(), atlas, tmp_path, timesteps=512, seed=0, env_kwargs=FAST, hyperparams=TINY,
+        curve_pads=curve_pads, n_evals=4,
+    )  # fmt: skip
+    points = json.loads((tmp_path / "learning_curve.json").read_text())["points"]
+    assert points == res.curve  # every 64 vector steps of 2 envs, the last at the end
+    assert [p["timesteps"] for p in points] == [128, 256, 384, 512]
+    best = min(points, key=lambda p: p["ratio_to_oracle"])
+    assert res.best_step == best["timesteps"] and all(p["ratio_to_oracle"] >= 1 for p in points)
+    # The saved agent is that one: pad by pad it costs what the curve said.
+    out = agent_outcomes(TrainedAgent(tmp_path), curve_pads, ("rul_mean",), FAST["episode_events"])
+    costs = EnvConfig().costs
+    ratio = oc.cost_per_1000(curve_pads, out, costs) / oc.cost_per_1000(
+        curve_pads, oc.oracle(curve_pads), costs
     )
-    env = agent_env(Oracle(), atlas, FAST)
-    obs, _ = env.reset(seed=1)
-    for _ in range(40):
-        a1, _ = agent.predict(obs)
-        assert np.array_equal(a1, again.predict(obs)[0])
-        # The npz statistics normalise exactly as SB3's own VecNormalize does.
-        z = venv.normalize_obs(obs[None])[0]
-        assert np.allclose(agent.normalize(obs), z, atol=1e-6)
-        assert int(a1) == int(agent.model.predict(z, deterministic=True)[0])
-        obs, *_ = env.step(a1)
+    assert ratio == pytest.approx(best["ratio_to_oracle"], rel=1e-12)
 
 
-def test_tiny_comparison_writes_well_formed_costs_and_oracle_is_cheapest(atlas, tmp_path):
-    config = CompareConfig(
-        predictors=("none", "oracle"),
+def test_an_agent_takes_pads_off_pad_by_pad_where_it_does_in_the_env(atlas, tmp_path):
+    """A (hand-set) agent that replaces below its mean RUL feature: its first replacement
+    on each pad, from the pad-level observations, is where it replaces in the env."""
+    train_agent(Oracle(), atlas, tmp_path, timesteps=64, seed=0, env_kwargs=FAST, hyperparams=TINY)
+    agent = TrainedAgent(tmp_path)
+    with torch.no_grad():  # replace where the normalised RUL feature is below 0
+        hidden, action = (
+            agent.model.policy.mlp_extractor.policy_net[0],
+            agent.model.policy.action_net,
+        )
+        hidden.weight.zero_(), hidden.bias.zero_(), action.weight.zero_(), action.bias.zero_()
+        hidden.weight[0, 1] = 1.0
+        action.weight[1, 0] = -10.0
+    env = agent_env(Oracle(), atlas, {**FAST, "episode_events": 200_000, "regime": "mixed"})
+    obs, _ = env.reset(seed=2)
+    config = EnvConfig.from_kwargs(**FAST, regime="mixed")
+    rng = np.random.default_rng(2)
+    taken, done = [], False
+    while not done:
+        obs, _, terminated, truncated, info = env.step(agent.predict(obs)[0])
+        done = terminated or truncated
+        taken += [(p.life_left, p.life) for p in info["retired"]]
+    assert len(taken) >= 3 and all(t[0] > 0 for t in taken)  # planned: no phase shifts
+    for i in range(len(taken)):
+        k, label = config.pad_regime.draw(rng)
+        draws = PadDraws(
+            np.array([k]), np.array([label]), np.array([rng.integers(2**63)]), {label: 1}
+        )
+        first = [1 if i == 0 else FAST["decision_interval"]]  # reset observes one event
+        pads = collect_pads(draws, atlas, config, {"oracle": Oracle()}, first=first)
+        out = agent_outcomes(agent, pads, ("rul_mean",), 200_000)
+        assert (int(pads.life[0] - out.events[0]), int(pads.life[0])) == taken[i]
+
+
+def tiny_config(**kw):
+    base = dict(
+        predictors=("none", "physics", "oracle"),
         agent_predictors=("oracle",),
-        timesteps=64,
+        timesteps=256,
+        min_timesteps=1,
         n_train_runs=2,
-        tune_seeds=1,
-        eval_seeds=2,
-        thresholds=(0, 1, 4),
-        fixed_intervals=(10_000, 20_000),
+        tune_pads=2,
+        eval_pads=3,
+        min_tune_pads=1,
+        n_resamples=200,
+        workers=0,
         episode_events=FAST["episode_events"],
         wear=WearRegime(FAST["k_mean"], FAST["k_std"]),
     )
-    args = argparse.Namespace(seed=0, quiet=True, preset="hot-duty", cache_dir=None, atlas=None)
-    returned = compare_and_report(config, args, tmp_path, {"oracle": TINY})
+    return CompareConfig(**{**base, **kw})
+
+
+def test_tiny_comparison_writes_well_formed_costs(atlas, tmp_path):
+    returned = compare_and_report(tiny_config(workers=2), ARGS, tmp_path, {"oracle": TINY})
     costs = json.loads((tmp_path / "costs.json").read_text())
-    assert set(costs) == set(returned) and costs["eval_seeds"] == returned["eval_seeds"]
-    assert (costs["config"]["k_mean"], costs["config"]["k_std"]) == (1e-5, 1e-6)
-    policies = costs["policies"]
-    expected = {"none/threshold", "oracle/threshold", "oracle/ppo", "fixed-interval"}
-    assert expected | {"replace-on-failure", "oracle"} == set(policies)
-    assert all(p["name"] == name for name, p in policies.items())
-    # Every candidate was tuned, labelled with its parameter; the winners' parameters are
-    # reported with their family.
-    thresholds = {f"{n}/threshold/{h}" for n in ("none", "oracle") for h in (0, 500, 2000)}
-    assert set(costs["tuning"]) == thresholds | {"fixed-interval/10000", "fixed-interval/20000"}
-    for family, value in costs["tuned_parameters"].items():
-        assert f"{family}/{value:g}" in costs["tuning"]
-        assert policies[family]["parameter"] == value
-    oracle = policies["oracle"]["cost_per_1000_events"]
-    for name, p in policies.items():
-        assert p["cost_per_1000_events"] >= oracle - 1e-9, name
-        assert p["ratio_to_oracle"] == pytest.approx(p["cost_per_1000_events"] / oracle)
-        assert set(p["failures_per_100_pads_by_regime"]) == {"id", "ood-slow", "ood-fast", "ood"}
-    assert set(costs["sensitivity"]) == {"5", "10", "50"}
-    for s in costs["sensitivity"].values():
-        assert sorted(s["predictor_ranking"]) == ["none", "oracle"]
-    for fig in ("cost_ratio", "replacement_timing", "cost_sensitivity"):
+    assert set(costs) == set(returned)
+    # Worker processes change where the work runs, not a figure.
+    here = compare_and_report(tiny_config(), ARGS, tmp_path / "here", {"oracle": TINY})
+    for key in ("policies", "gaps", "tuned_parameters", "sensitivity", "learning_curves"):
+        assert here[key] == returned[key] or key == "learning_curves", key
+    assert [p["ratio_to_oracle"] for p in here["learning_curves"]["oracle"]] == [
+        p["ratio_to_oracle"] for p in returned["learning_curves"]["oracle"]
+    ]
+    assert costs["pads"] == {
+        "tune": {"id": 2, "ood-slow": 2, "ood-fast": 2},
+        "evaluate": {"id": 3, "ood-slow": 3, "ood-fast": 3},
+    }
+    expected = {"none/threshold", "physics/threshold", "oracle/threshold", "oracle/ppo"}
+    assert set(costs["policies"]) == expected | {"fixed-interval", "replace-on-failure", "oracle"}
+    assert costs["ranking"][0] in ("oracle", "oracle/threshold") and not costs["skipped"]
+    ratios = [costs["policies"][p]["ratio_to_oracle"] for p in costs["ranking"]]
+    assert [r["value"] for r in ratios] == sorted(r["value"] for r in ratios)
+    assert all(r["low"] <= r["value"] <= r["high"] and r["low"] >= 1 - 1e-12 for r in ratios)
+    assert len(costs["gaps"]) == len(ratios) - 1
+    assert set(costs["sensitivity"]) == {"5", "10", "50", "200"}
+    assert {t["name"] for t in costs["targets"]} and costs["learning_curves"]["oracle"]
+    for fam, value in costs["tuned_parameters"].items():
+        assert value == "never" or value in costs["tuning"]["candidates"][fam]
+    for fig in ("cost_ratio", "replacement_timing", "cost_sensitivity", "learning_curve"):
         assert (tmp_path / "figures" / f"{fig}.png").stat().st_size > 0
+
+
+def test_a_budget_too_small_gives_no_figure_but_a_reason(atlas, tmp_path):
+    config = tiny_config(predictors=("none", "oracle"), timesteps=10, min_timesteps=100,
+                         min_tune_pads=100)  # fmt: skip
+    costs = compare_and_report(config, ARGS, tmp_path)
+    assert set(costs["policies"]) == {"replace-on-failure", "oracle"}
+    skipped = costs["skipped"]
+    assert "not trained" in skipped["oracle/ppo"] and "not tuned" in skipped["fixed-interval"]
+    assert "none/threshold" in skipped and not (tmp_path / "agents").exists()
+
+
+def test_brakewear_compare_and_the_demo_stage_run_on_tiny_budgets(atlas, tmp_path, monkeypatch):
+    import agents.cli
+    from brake_env.cli.demo import DemoContext
+    from brake_env.cli.main import main
+
+    rc = main(["compare", "--out", str(tmp_path / "c"), "--quiet", "--predictors", "none,oracle",
+               "--timesteps", "1", "--tune-pads", "2", "--eval-pads", "2", "--n-train-runs", "2",
+               "--resamples", "100", "--k-mean", "1e-5", "--episode-events", "30000",
+               "--workers", "0"])  # fmt: skip
+    assert rc in (0, None) and (tmp_path / "c" / "costs.json").exists()
+    monkeypatch.setattr(agents.cli, "DEMO_TUNE_PADS", 2)
+    monkeypatch.setattr(agents.cli, "DEMO_EVAL_PADS", 2)
+    args = argparse.Namespace(**vars(ARGS), n_train=2, k_mean=1e-5, k_std=None, ood_shift_sigma=6.0)
+    ctx = DemoContext(args, tmp_path / "demo", tmp_path / "atlas.npz", tmp_path / "data")
+    summary, section = agents.cli.demo_compare(ctx)
+    assert "not trained" in section and "| policy |" in section and summary["ranking"]
 
 
 def test_compare_config_is_validated():
     with pytest.raises(ValueError, match="unknown predictor"):
         CompareConfig(predictors=("crystal-ball",))
-    with pytest.raises(ValueError, match="not among the predictors"):
-        CompareConfig(predictors=("none",), agent_predictors=("twin",))
+    with pytest.raises(ValueError, match="eval_pads must be >= 1"):
+        CompareConfig(eval_pads=0)
     with pytest.raises(TypeError, match="WearRegime"):
         CompareConfig(wear=(1e-5, 1e-6))
 
@@ -136,7 +209,12 @@ def test_compare_config_passes_its_wear_regime_to_the_env():
     assert "wear" not in flat and (flat["k_mean"], flat["ood_shift_sigma"]) == (1e-5, 4.0)
 
 
-def test_none_predictor_threshold_env_runs(atlas):
+def test_an_agent_env_observes_age_and_rul_in_log_steps(atlas):
     env = agent_env(NoPrognostics(2e4), atlas, FAST)
     obs, _ = env.reset(seed=0)
-    assert env.observation_space.contains(obs)
+    assert env.observation_space.contains(obs) and obs.shape == (2,)
+    assert obs == pytest.approx(np.log1p(np.array([1, 2e4]) / 500))
+    _, reward, *_ = env.step(1)
+    assert reward == -1.0  # a planned replacement, in planned replacements
+    predictors, _ = fit_predictors(("twin",), atlas, 0, 2, WearRegime(1e-5, 1e-6))
+    assert agent_env(predictors["twin"], atlas, FAST).observation_space.shape == (3,)
