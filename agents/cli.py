@@ -157,7 +157,7 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
     add_common_args(t, "out/train")
     t.add_argument("--predictor", choices=predictor_names(), default="twin")
     t.add_argument("--algo", choices=ALGOS, default="ppo")
-    t.add_argument("--timesteps", type=int_at_least(1), default=300_000)
+    t.add_argument("--timesteps", type=int_at_least(1), default=100_000)
     t.add_argument("--hyperparams", default=None, help="TOML file (default agents/hyperparams/)")
     t.add_argument("--n-train-runs", type=int_at_least(1), default=10, help="pads to fit on")
     t.add_argument(
@@ -174,7 +174,7 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
         help="rank predictors by the maintenance cost their policies lead to",
     )
     add_common_args(c, "out/compare")
-    c.add_argument("--timesteps", type=int_at_least(1), default=300_000, help="per agent")
+    c.add_argument("--timesteps", type=int_at_least(1), default=100_000, help="per agent")
     c.add_argument("--algo", choices=ALGOS, default="ppo")
     c.add_argument("--predictors", type=_names, default=predictor_names(), help="comma-separated")
     c.add_argument(

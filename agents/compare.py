@@ -90,8 +90,8 @@ class CompareConfig:
     predictors: tuple[str, ...] = field(default_factory=predictor_names)
     agent_predictors: tuple[str, ...] = ("twin", "oracle")
     algo: str = "ppo"
-    timesteps: int = 300_000
-    min_timesteps: int = 100_000
+    timesteps: int = 100_000
+    min_timesteps: int = 50_000
     n_train_runs: int = 10
     tune_pads: int = 100
     eval_pads: int = 1000

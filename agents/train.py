@@ -91,7 +91,7 @@ def train_agent(
     out_dir: str | Path,
     *,
     algo: str = "ppo",
-    timesteps: int = 300_000,
+    timesteps: int = 100_000,
     seed: int = 0,
     env_kwargs: dict[str, Any] | None = None,
     hyperparams: dict[str, Any] | None = None,

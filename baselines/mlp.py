@@ -38,9 +38,9 @@ import torch
 from numpy.typing import NDArray
 from torch import nn
 
-from baselines._fleet import SlotFleet
 from baselines._runs import rul_targets, training_runs
 from brake_env._validate import check_positive, from_dict
+from brake_env.prognostics.fleet import SlotFleet
 from brake_env.prognostics.protocol import EventBatch, Predictor, RULEstimate
 
 F64 = NDArray[np.float64]

@@ -38,11 +38,11 @@ import pandas as pd
 from numpy.typing import NDArray
 
 from baselines._censoring import Evidence, fit_normal
-from baselines._fleet import SlotFleet
 from baselines._runs import TrainingRuns, training_runs
 from brake_env.model.atlas import Atlas
 from brake_env.model.materials import hardness_mpa
 from brake_env.model.wear import WearModel
+from brake_env.prognostics.fleet import SlotFleet
 from brake_env.prognostics.protocol import EventBatch, Predictor, RULEstimate
 
 ROOM_TEMP_C = 20.0

@@ -42,11 +42,11 @@ import pandas as pd
 from numpy.typing import NDArray
 
 from baselines._censoring import Evidence
-from baselines._fleet import SlotFleet
 from baselines._rate_prior import RatePrior
 from baselines._rolling import RollingSums
 from baselines._runs import training_runs
 from brake_env._validate import check_positive, from_dict
+from brake_env.prognostics.fleet import SlotFleet
 from brake_env.prognostics.protocol import MEASURED, EventBatch, Predictor, RULEstimate
 
 F64 = NDArray[np.float64]

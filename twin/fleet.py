@@ -19,9 +19,9 @@ from __future__ import annotations
 import itertools
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import NDArray
 
-from brake_env.prognostics.fleet import Fleet, last_rows, slot_runs, take_events
+from brake_env.prognostics.fleet import SlotFleet, last_rows, slot_runs, take_events
 from brake_env.prognostics.protocol import EventBatch, RULEstimate
 from twin.posterior import F64, Summary, TwinGrid
 
@@ -30,7 +30,7 @@ DENSE_EVERY = 32  # a run asking for estimates more often than every this many e
 # read block by block from a window of the grid
 
 
-class TwinFleet(Fleet):
+class TwinFleet(SlotFleet):
     """Per-pad posterior state of one calibrated digital twin for ``n_pads`` slots.
 
     The estimates equal those of :class:`twin.DigitalTwin` fed the same events pad by pad,
@@ -42,40 +42,34 @@ class TwinFleet(Fleet):
     """
 
     def __init__(self, grid: TwinGrid, n_pads: int) -> None:
-        super().__init__(n_pads)
+        super().__init__("twin", n_pads)
         self.grid = grid
         self.chunk = grid.config.chunk_events
         # Difference arrays of the grid log-likelihood; the extra last column takes the
         # jumps of layers no grid K reaches.
         self._diff = np.zeros((n_pads, grid.n_grid + 1))
-        self._next = np.full(n_pads, -1, dtype=np.int64)  # -1: a new pad, starts anywhere
 
-    def reset(self, pads: ArrayLike) -> None:
-        idx = self._slots(np.atleast_1d(np.asarray(pads)))
-        self._diff[idx] = 0.0
-        self._next[idx] = -1
+    def _reset_slots(self, pads: NDArray[np.intp]) -> None:
+        self._diff[pads] = 0.0
 
     def loglik(self, pad: int) -> F64:
         """The grid log-likelihood of slot ``pad`` after its events so far [-]."""
         return np.cumsum(self._diff[pad, :-1])
 
-    def update(
+    def _update(
         self,
         pads: NDArray[np.intp],
         events: EventBatch,
-        summarise: NDArray[np.bool_] | None = None,
+        want: NDArray[np.bool_],
+        starts: NDArray[np.intp],
+        slots: NDArray[np.intp],
     ) -> RULEstimate:
-        pads = self._slots(np.asarray(pads))
-        if len(pads) != len(events):
-            raise ValueError(f"TwinFleet.update: {len(pads)} slots for {len(events)} events")
-        if len(pads) == 0:
-            raise ValueError("TwinFleet.update: needs at least one event")
-        want = last_rows(pads) if summarise is None else np.asarray(summarise, dtype=bool)
-        if want.shape != pads.shape:
-            raise ValueError(f"TwinFleet.update: summarise has {want.size} rows, not {len(pads)}")
-        starts, slots = slot_runs(pads)
         ends = np.append(starts[1:], len(pads))
-        self._check_runs(starts, ends, slots, events.event)
+        if events.event.size > starts.size:  # the posterior counts every event of a pad
+            step = np.diff(events.event)
+            step[ends[:-1] - 1] = 1  # across slots
+            if np.any(step != 1):
+                raise ValueError("twin: a slot's events must be consecutive")
         rows = np.flatnonzero(want)
         out = np.empty((5, rows.size))
         # Runs that ask for estimates at many of their events are read from a window of the
@@ -92,43 +86,7 @@ class TwinFleet(Fleet):
                 at = np.flatnonzero(want[c0:c1])
                 res = self._block(int(slot), events[c0:c1], at)
                 self._put(out, rows, c0 + at, res)
-        self._next[slots] = events.event[ends - 1] + 1
         return RULEstimate(*out)
-
-    # ------------------------------------------------------------------ checks
-    def _slots(self, pads: NDArray[np.integer]) -> NDArray[np.intp]:
-        if pads.ndim != 1 or not np.issubdtype(pads.dtype, np.integer):
-            raise ValueError(f"TwinFleet: pads must be a 1-D array of slot indices, got {pads}")
-        if pads.size and (pads.min() < 0 or pads.max() >= self.n_pads):
-            raise ValueError(f"TwinFleet: slots must be in [0, {self.n_pads}), got {pads}")
-        return pads.astype(np.intp, copy=False)
-
-    def _check_runs(
-        self,
-        starts: NDArray[np.intp],
-        ends: NDArray[np.intp],
-        slots: NDArray[np.intp],
-        event: NDArray[np.int64],
-    ) -> None:
-        """Each slot's rows are contiguous, consecutive, and continue its previous rows."""
-        if slots.size > 1 and np.unique(slots).size != slots.size:
-            raise ValueError("TwinFleet.update: the rows of a slot must be contiguous")
-        first, prev = event[starts], self._next[slots]
-        if np.any(first < 0):
-            raise ValueError(f"TwinFleet.update: event indices start at 0, got {first.min()}")
-        bad = (prev >= 0) & (first != prev)
-        if bad.any():
-            i = int(np.argmax(bad))
-            raise ValueError(
-                f"TwinFleet.update: slot {int(slots[i])} starts at event {int(first[i])},"
-                f" expected {int(prev[i])} (reset the slot when a pad is installed)"
-            )
-        if event.size == starts.size:
-            return  # one event per slot
-        step = np.diff(event)
-        step[ends[:-1] - 1] = 1  # across slots
-        if np.any(step != 1):
-            raise ValueError("TwinFleet.update: a slot's events must be consecutive")
 
     # ------------------------------------------------------------------ evidence in
     def _evidence(self, ev: EventBatch) -> tuple[F64, F64, NDArray[np.intp]]:

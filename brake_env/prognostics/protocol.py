@@ -22,6 +22,8 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
+from brake_env.data.schema import FAILED
+
 if TYPE_CHECKING:
     from brake_env.prognostics.fleet import Fleet
 
@@ -281,7 +283,20 @@ class NoPrognostics(Predictor):
         self.mean_life_events = mean_life_events
 
     def _fit(self, train_log: pd.DataFrame) -> None:
-        self.mean_life_events = float(train_log.groupby("run_id", observed=True).size().mean())
+        # A life is the last event + 1 of a run that failed (events count from installation,
+        # so a log that starts mid-life still gives the whole life); a run removed before
+        # failure (``failed`` false on its last row) only bounds its life and is left out.
+        runs = train_log.groupby("run_id", observed=True, sort=False)
+        lives = runs["event"].max() + 1
+        if FAILED in train_log:
+            failed = runs[FAILED].last().astype(bool)
+            if not failed.any():
+                raise ValueError(
+                    f"none: no training run ended at failure (runs {list(lives.index[:5])}"
+                    " were all removed before it), so there is no life to average"
+                )
+            lives = lives[failed]
+        self.mean_life_events = float(lives.mean())
 
     def get_state(self) -> tuple[dict[str, Any], dict[str, NDArray[Any]]]:
         return {"mean_life_events": self.mean_life_events}, {}

@@ -105,3 +105,21 @@ def test_bad_input(logs: dict[str, pd.DataFrame]) -> None:
         evaluate({"o": Oracle()}, {**logs, "id": late})
     with pytest.raises(ValueError, match="tolerances"):
         EvaluationConfig(tolerances=(0.0,))
+
+
+def test_no_prognostics_takes_lives_only_from_failed_runs(logs: dict[str, pd.DataFrame]) -> None:
+    train = logs["train"]
+    lives = train.groupby("run_id", observed=True)["event"].max() + 1
+    # Logged from mid-life: the life is still the last event + 1, not the row count.
+    tail = train.groupby("run_id", observed=True).tail(50)
+    assert NoPrognostics().fit(tail).mean_life_events == pytest.approx(lives.mean())
+    # One run removed before failure (its last row not marked failed): left out.
+    cut = train.copy()
+    first = str(cut["run_id"].iloc[0])
+    rows = np.flatnonzero(cut["run_id"] == first)
+    cut = cut.drop(index=cut.index[rows[len(rows) // 2 :]])
+    cut["failed"] = cut["failed"].astype(bool)
+    assert NoPrognostics().fit(cut).mean_life_events == pytest.approx(lives.drop(first).mean())
+    none_failed = cut.assign(failed=False)
+    with pytest.raises(ValueError, match="no training run ended at failure"):
+        NoPrognostics().fit(none_failed)

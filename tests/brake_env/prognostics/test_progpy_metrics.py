@@ -53,9 +53,7 @@ def _runs() -> dict[str, F64]:
         "perfect": TRUE.copy(),
         "late by 15% of life": TRUE + 0.15 * LIFE,
         "physics line (wrong life)": _quarters(np.maximum(TRUE * 1.3 - 20.0, 0.0)),
-        "noisy, converging": _quarters(
-            TRUE + 150.0 * np.exp(-k / 80.0) + rng.normal(0.0, 8.0, N)
-        ),
+        "noisy, converging": _quarters(TRUE + 150.0 * np.exp(-k / 80.0) + rng.normal(0.0, 8.0, N)),
         "piecewise constant": steps,
         # Inside the 20% band from the start, then out, ending outside: a horizon by
         # ProgPy's definition, none by "inside for good".
