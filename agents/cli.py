@@ -122,6 +122,7 @@ def compare_and_report(
 
 # ---------------------------------------------------------------------- demo
 DEMO_TUNE_PADS, DEMO_EVAL_PADS = 34, 70  # per label: 102 tuning and 210 held-out pads
+DEMO_PREDICTORS = ("none", "physics", "data", "twin", "oracle")  # the paper's three
 
 
 def demo_compare(ctx: DemoContext) -> tuple[dict[str, Any], str]:
@@ -133,6 +134,7 @@ def demo_compare(ctx: DemoContext) -> tuple[dict[str, Any], str]:
 
     args = ctx.args
     config = CompareConfig(
+        predictors=DEMO_PREDICTORS,
         n_train_runs=max(3, args.n_train),
         tune_pads=DEMO_TUNE_PADS,
         eval_pads=DEMO_EVAL_PADS,
@@ -164,6 +166,9 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
         "--curve-pads", type=int_at_least(1), default=40, help="learning-curve pads per label"
     )
     t.add_argument("--eval-pads", type=int_at_least(1), default=100, help="held-out per label")
+    t.add_argument(
+        "--workers", type=int_at_least(0), default=1, help="processes simulating pads meanwhile"
+    )
     t.add_argument("--atlas", default=None, help="atlas .npz instead of the cache")
     _env_args(t)
     t.set_defaults(func=cmd_train)

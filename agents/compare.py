@@ -79,7 +79,8 @@ class CompareConfig:
         level: Confidence level of the intervals [-].
         n_resamples: Bootstrap resamples.
         workers: Processes that simulate pads and train agents side by side (0: all in
-            this process, in order; the same figures).
+            this process, in order; the same figures). They are spawned, so a script that
+            runs the study with workers needs the ``if __name__ == "__main__":`` guard.
         wear: Distribution of K of the training pads and of every studied pad.
     """
 

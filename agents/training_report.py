@@ -8,36 +8,18 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from agents.compare import CompareConfig, fit_predictors, id_life, tune
-from agents.pad_study import PadDraws, PadSet, collect_pads
+from agents.pad_study import PadDraws
 from agents.policies import PolicyId
 from agents.ranking import rank_policies
 from agents.report import cost_rows
 from agents.results import RatioResult
+from agents.workers import Workers
 from brake_env.cli.common import load_atlas, wear_regime
 from brake_env.env.config import CostWeights, EnvConfig
-from brake_env.model.atlas import Atlas
 from brake_env.output import table, write_json
-from brake_env.prognostics.protocol import Predictor
 
 if TYPE_CHECKING:
     from agents.train import TrainResult
-
-
-def _pad_sets(
-    args: argparse.Namespace,
-    atlas: Atlas,
-    env_kwargs: dict[str, Any],
-    fitted: dict[str, Predictor],
-    progress: Any,
-) -> tuple[PadSet, PadSet]:
-    """The learning curve's pads and the held-out pads (seeds apart from the study's)."""
-    env_config = EnvConfig.from_kwargs(**env_kwargs)
-    sets = []
-    for label, n, key in (("curve pads", args.curve_pads, 3), ("held-out pads", args.eval_pads, 4)):
-        draws = PadDraws.stratified(env_config.pad_regime, n, [args.seed, key])
-        bar = progress(label, len(draws))
-        sets.append(collect_pads(draws, atlas, env_config, fitted, progress=bar))
-    return sets[0], sets[1]
 
 
 def train_and_report(
@@ -54,20 +36,31 @@ def train_and_report(
     names = tuple(dict.fromkeys((args.predictor, "oracle")))
     print(f"fitting {', '.join(names)} on {args.n_train_runs} simulated training pads")
     fitted, _ = fit_predictors(names, atlas, args.seed, args.n_train_runs, wear_regime(args))
-    curve_pads, held_out = _pad_sets(args, atlas, env_kwargs, fitted, progress)
+    env_config = EnvConfig.from_kwargs(**env_kwargs)
+    draws = [
+        PadDraws.stratified(env_config.pad_regime, n, [args.seed, key])
+        for n, key in ((args.curve_pads, 3), (args.eval_pads, 4))
+    ]
     hp = load_hyperparams(args.predictor, args.algo, args.hyperparams) if args.hyperparams else None
-    res = train_agent(
-        fitted[args.predictor],
-        atlas,
-        args.out,
-        algo=args.algo,
-        timesteps=args.timesteps,
-        seed=args.seed,
-        env_kwargs=env_kwargs,
-        hyperparams=hp,
-        curve_pads=curve_pads,
-        progress_bar=not args.quiet,
-    )
+    # One worker simulates the held-out pads while this process trains.
+    with Workers(args.workers) as workers:
+        curve_pads = workers.collect(
+            draws[0], atlas, env_config, fitted, progress("curve pads", len(draws[0]))
+        )
+        held_later = workers.collect_later(draws[1], atlas, env_config, fitted)
+        res = train_agent(
+            fitted[args.predictor],
+            atlas,
+            args.out,
+            algo=args.algo,
+            timesteps=args.timesteps,
+            seed=args.seed,
+            env_kwargs=env_kwargs,
+            hyperparams=hp,
+            curve_pads=curve_pads,
+            progress_bar=not args.quiet,
+        )
+        held_out = held_later(progress("held-out pads", len(draws[1])))
     config = CompareConfig(
         predictors=(args.predictor,),
         agent_predictors=(),

@@ -72,17 +72,34 @@ class Workers:
     ) -> PadSet:
         """:func:`~agents.pad_study.collect_pads` in chunks of pads spread over the workers
         (queued behind tasks already submitted); the same pad set."""
+        return self.collect_later(draws, atlas, config, predictors)(progress)
+
+    def collect_later(
+        self,
+        draws: PadDraws,
+        atlas: Atlas,
+        config: EnvConfig,
+        predictors: Mapping[str, Predictor],
+    ) -> Callable[[Callable[[int], object] | None], PadSet]:
+        """:meth:`collect`, queued now; the returned function waits for the pad set (and
+        advances a progress callback by the pads of each chunk done)."""
         if self._pool is None:
-            return collect_pads(draws, atlas, config, predictors, progress=progress)
+            return lambda progress: collect_pads(
+                draws, atlas, config, predictors, progress=progress
+            )
         chunks = np.array_split(np.arange(len(draws)), -(-len(draws) // CHUNK_PADS))
         futures = {
             self.submit(collect_pads, draws.subset(c), atlas, config, dict(predictors)): i
             for i, c in enumerate(chunks)
         }
-        parts: dict[int, PadSet] = {}
-        for f in as_completed(futures):
-            parts[futures[f]] = f.result()
-            if progress:
-                progress(len(parts[futures[f]]))
-        whole = concat_pad_sets([parts[i] for i in range(len(chunks))])
-        return replace(whole, draws=draws)
+
+        def join(progress: Callable[[int], object] | None) -> PadSet:
+            parts: dict[int, PadSet] = {}
+            for f in as_completed(futures):
+                parts[futures[f]] = f.result()
+                if progress:
+                    progress(len(parts[futures[f]]))
+            whole = concat_pad_sets([parts[i] for i in range(len(chunks))])
+            return replace(whole, draws=draws)
+
+        return join

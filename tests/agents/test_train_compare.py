@@ -218,3 +218,19 @@ def test_an_agent_env_observes_age_and_rul_in_log_steps(atlas):
     assert reward == -1.0  # a planned replacement, in planned replacements
     predictors, _ = fit_predictors(("twin",), atlas, 0, 2, WearRegime(1e-5, 1e-6))
     assert agent_env(predictors["twin"], atlas, FAST).observation_space.shape == (3,)
+
+
+def test_brakewear_train_writes_a_learning_curve_and_a_held_out_table(tmp_path):
+    from brake_env.cli.main import main
+
+    hp = tmp_path / "tiny.toml"
+    table = "\n".join(f"{k} = {json.dumps(v)}" for k, v in TINY.items())
+    hp.write_text(f"[ppo]\n{table}\n")
+    out = tmp_path / "train"
+    main(["train", "--out", str(out), "--quiet", "--predictor", "oracle", "--timesteps", "256",
+          "--hyperparams", str(hp), "--n-train-runs", "2", "--curve-pads", "1",
+          "--eval-pads", "2", "--k-mean", "1e-5", "--episode-events", "30000"])  # fmt: skip
+    ev = json.loads((out / "evaluation.json").read_text())
+    assert ev["pads"] == {"curve": 3, "held_out": 6} and ev["learning_curve"]
+    assert {"oracle/ppo", "oracle", "replace-on-failure"} <= set(ev["policies"])
+    assert (out / "figures" / "learning_curve.png").stat().st_size > 0
