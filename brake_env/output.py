@@ -11,10 +11,12 @@ last, so a directory half old, half new is refused too.
 from __future__ import annotations
 
 import hashlib
+import io
 import json
 import math
 import os
 import secrets
+import zipfile
 from collections.abc import Iterable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
@@ -148,6 +150,57 @@ def write_json(obj: Any, path: str | os.PathLike[str]) -> Path:
     """
     text = json.dumps(json_safe(obj), indent=2, sort_keys=False, allow_nan=False)
     return write_text(text + "\n", path)
+
+
+# ---------------------------------------------------------------------- arrays
+PLAIN_KINDS = frozenset("biufcUS")  # numbers, booleans and fixed-width strings: no objects
+
+
+def write_arrays(arrays: dict[str, np.ndarray], path: str | os.PathLike[str]) -> str:
+    """Write named arrays as ``.npz`` (atomically); returns its SHA-256, for the JSON
+    header that vouches for it (:func:`read_arrays`).
+
+    Raises:
+        TypeError: An array holds Python objects (they would need pickle to read back).
+    """
+    bad = [k for k, a in arrays.items() if np.asarray(a).dtype.kind not in PLAIN_KINDS]
+    if bad:
+        raise TypeError(f"{path}: arrays {bad} hold Python objects, not numbers or strings")
+    buf = io.BytesIO()
+    np.savez(buf, **arrays)  # type: ignore[arg-type]  # numpy's stub: allow_pickle
+    blob = buf.getvalue()
+    with atomic_path(path) as tmp:
+        tmp.write_bytes(blob)
+    return hashlib.sha256(blob).hexdigest()
+
+
+def read_arrays(path: str | os.PathLike[str], sha256: str, what: str) -> dict[str, np.ndarray]:
+    """The arrays :func:`write_arrays` wrote to ``path``, if its SHA-256 is ``sha256``;
+    read with ``allow_pickle=False``, so no file can run code here.
+
+    Raises:
+        ValueError: Unreadable, another file than the header was written with, or arrays
+            that are not plain numbers or strings; the message starts with ``what``.
+    """
+    name = Path(path).name
+    try:
+        blob = Path(path).read_bytes()
+    except OSError as e:
+        raise ValueError(f"{what}: cannot read {name} ({e})") from None
+    if hashlib.sha256(blob).hexdigest() != sha256:
+        raise ValueError(
+            f"{what}: {name} is not the file its header was written with (an interrupted or"
+            " mixed write); write it again"
+        )
+    try:
+        with np.load(io.BytesIO(blob), allow_pickle=False) as z:
+            arrays = {k: z[k] for k in z.files}
+    except (ValueError, OSError, zipfile.BadZipFile) as e:
+        raise ValueError(f"{what}: unreadable {name} ({e})") from None
+    bad = [k for k, a in arrays.items() if a.dtype.kind not in PLAIN_KINDS]
+    if bad:
+        raise ValueError(f"{what}: {name} arrays {bad} are not numbers or strings")
+    return arrays
 
 
 # ---------------------------------------------------------------------- Parquet

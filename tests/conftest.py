@@ -26,3 +26,15 @@ def atlas() -> Atlas:
 def small_atlas() -> Atlas:
     """A coarse atlas of the default physics for fast simulator and dataset tests."""
     return Atlas.build(AtlasSpec(n_speed=6, n_mass=3, n_slope=5))
+
+
+@pytest.fixture(scope="session")
+def local_ray():
+    """A local Ray with 2 CPUs for the whole session (started once: ~4 s); Runners join it.
+    Tests that use it are skipped where Ray is not installed."""
+    ray = pytest.importorskip("ray")
+    from brake_env.runner import Runner
+
+    runner = Runner(workers=2)  # starts Ray with the project's import path for the workers
+    yield ray
+    runner.__exit__()

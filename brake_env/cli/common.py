@@ -5,15 +5,19 @@ parse time (tables and JSON files are in :mod:`brake_env.output`)."""
 from __future__ import annotations
 
 import argparse
+import sys
 from collections.abc import Callable
 from importlib.metadata import entry_points
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from tqdm import tqdm
 
 from brake_env.model.atlas import Atlas, AtlasSpec, cached_atlas
 from brake_env.model.params import BrakeModel
 from brake_env.model.regime import WearRegime
+
+if TYPE_CHECKING:
+    from brake_env.runner import Runner
 
 
 def int_at_least(lo: int) -> Callable[[str], int]:
@@ -54,6 +58,41 @@ def add_common_args(sp: argparse.ArgumentParser, out_default: str) -> None:
         help="atlas cache (default $BRAKEWEAR_CACHE_DIR or ~/.cache/brakewear)",
     )
     sp.add_argument("--quiet", action="store_true", help="no progress bars")
+
+
+def add_runner_args(sp: argparse.ArgumentParser, workers: int = 0) -> None:
+    """Where the command's independent units run (:class:`~brake_env.runner.Runner`)."""
+    sp.add_argument(
+        "--workers",
+        type=int_at_least(0),
+        default=workers,
+        help="CPUs of a local Ray that runs the units (0: all in this process, no Ray)",
+    )
+    sp.add_argument(
+        "--ray",
+        nargs="?",
+        const="auto",
+        default=None,
+        metavar="auto|ADDRESS",
+        help="run the units on a Ray cluster (auto: the one this machine belongs to)",
+    )
+
+
+def make_runner(args: argparse.Namespace) -> Runner:
+    """The runner ``--workers`` and ``--ray`` ask for. Workers without Ray installed run in
+    this process, with a note (the same results, one core)."""
+    from brake_env.runner import Runner, ray_available
+
+    workers = int(getattr(args, "workers", 0) or 0)
+    address = getattr(args, "ray", None)
+    if workers and not address and not ray_available():
+        print(
+            f"note: Ray is not installed, so the {workers} workers run as one, in this process"
+            " (pip install 'brakewear[ray]' for parallel units)",
+            file=sys.stderr,
+        )
+        workers = 0
+    return Runner(workers=workers, address=address)
 
 
 def plugins(group: str) -> list[Any]:

@@ -1,0 +1,368 @@
+"""Independent units of work (pads, seeds, cases, training runs) run in this process or as
+Ray tasks, each result saved as it finishes so that an interrupted run resumes from what
+finished (README "Running on a cluster").
+
+A unit is a module-level function and its arguments; its result depends on its arguments
+alone (each unit is seeded by its own number), so the results are the same wherever it
+runs. Large inputs that many units share (the atlas, fitted predictors) go through
+:meth:`Runner.share`: on Ray they are put in the object store once and every task reads
+them from there; in this process they are passed as they are.
+
+In this process is the default and needs no Ray; ``workers`` > 0 starts a local Ray with
+that many CPUs; an address joins a running cluster (``auto``: the one this machine belongs
+to). Ray retries a task whose worker died; a unit that raises is reported by name after
+the other units have finished (and been saved), so a rerun redoes only the failed ones.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import re
+from collections.abc import Callable, Mapping, Sequence
+from concurrent.futures import Future, as_completed
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from brake_env.output import read_arrays, write_arrays, write_json
+
+AUTO = "auto"
+RETRIES = 2  # Ray reruns a task this many times when its worker process dies
+
+
+@dataclass(frozen=True)
+class Unit:
+    """One independent piece of work: ``fn(*args)``.
+
+    Attributes:
+        key: Unique name in its run: progress, errors and the saved result use it.
+        fn: A module-level function (Ray workers import it by name).
+        args: Its arguments; values from :meth:`Runner.share` are resolved in the task.
+    """
+
+    key: str
+    fn: Callable[..., Any]
+    args: tuple[Any, ...] = ()
+
+
+class UnitsFailed(RuntimeError):
+    """Some units raised; the message names each with its error."""
+
+    def __init__(self, errors: Mapping[str, BaseException]) -> None:
+        self.errors = dict(errors)
+        lines = [f"  {k}: {type(e).__name__}: {e}" for k, e in self.errors.items()]
+        super().__init__(f"{len(lines)} unit(s) failed:\n" + "\n".join(lines))
+
+
+def ray_available() -> bool:
+    """Whether Ray can be imported here."""
+    try:
+        import ray  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+class Runner:
+    """Where units run. Use as a context manager (a local Ray it started is shut down).
+
+    Args:
+        workers: CPUs of a local Ray started here (0: run every unit in this process, in
+            order; no Ray needed).
+        address: A Ray cluster to join instead (``auto`` or ``HOST:PORT``); ``workers``
+            is then ignored.
+        retries: Times Ray reruns a task whose worker died.
+    """
+
+    def __init__(self, workers: int = 0, address: str | None = None, retries: int = RETRIES):
+        if workers < 0:
+            raise ValueError(f"Runner: workers must be >= 0, got {workers}")
+        self.workers, self.address, self.retries = workers, address, retries
+        self._ray: Any = None
+        self._started = False
+        self._remote: dict[Callable[..., Any], Any] = {}
+        if address or workers:
+            self._start_ray()
+
+    def _start_ray(self) -> None:
+        try:
+            import ray
+        except ImportError:
+            raise ImportError(
+                "running on Ray (--ray, or workers > 0) needs Ray: pip install 'brakewear[ray]'"
+                " (or run in this process: --workers 0)"
+            ) from None
+        self._ray = ray
+        if ray.is_initialized():
+            return
+        # The driver's import path reaches the workers, so an uninstalled checkout works.
+        runtime_env = {"env_vars": {"PYTHONPATH": os.pathsep.join(_import_paths())}}
+        kwargs: dict[str, Any] = {"runtime_env": runtime_env, "log_to_driver": False}
+        if self.address:
+            ray.init(address=self.address, **kwargs)
+        else:
+            ray.init(num_cpus=self.workers, include_dashboard=False, **kwargs)
+        self._started = True
+
+    @property
+    def on_ray(self) -> bool:
+        """Whether units run as Ray tasks."""
+        return self._ray is not None
+
+    def __enter__(self) -> Runner:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        if self._started:
+            self._ray.shutdown()
+            self._started = False
+
+    def share(self, obj: Any) -> Any:
+        """``obj`` as units should receive it: in Ray's object store (put once, read by
+        every task), or itself in this process."""
+        return self._ray.put(obj) if self.on_ray else obj
+
+    def submit(self, fn: Callable[..., Any], *args: Any) -> Future[Any]:
+        """``fn(*args)`` as a Ray task, or here and now in this process."""
+        if not self.on_ray:
+            done: Future[Any] = Future()
+            try:
+                done.set_result(fn(*args))
+            except Exception as e:  # reported by the caller, like a task's error
+                done.set_exception(e)
+            return done
+        remote = self._remote.get(fn)
+        if remote is None:
+            remote = self._ray.remote(max_retries=self.retries)(fn)
+            self._remote[fn] = remote
+        future: Future[Any] = remote.remote(*args).future()
+        return future
+
+    def run(
+        self,
+        units: Sequence[Unit],
+        store: UnitStore | None = None,
+        progress: Callable[[str, Any], object] | None = None,
+    ) -> dict[str, Any]:
+        """Every unit's result by key, in the order of ``units``.
+
+        Results already in ``store`` are read, not recomputed; new ones are saved there as
+        they finish. ``progress(key, result)`` is called as each unit finishes (in finishing
+        order on Ray).
+
+        Raises:
+            UnitsFailed: After every other unit has finished, naming those that raised.
+        """
+        return self.start(units, store)(progress)
+
+    def start(
+        self, units: Sequence[Unit], store: UnitStore | None = None
+    ) -> Callable[[Callable[[str, Any], object] | None], dict[str, Any]]:
+        """:meth:`run`, submitted now (Ray works on them meanwhile); call the returned
+        function with a progress callback (or None) to wait for the results."""
+        keys = [u.key for u in units]
+        if len(set(keys)) != len(keys):
+            raise ValueError(f"unit keys must be unique, got {sorted(keys)}")
+        results = {k: store.load(k) for k in keys if store is not None and k in store}
+        todo = [u for u in units if u.key not in results]
+        if not self.on_ray:
+            return lambda progress: self._run_here(units, todo, results, store, progress)
+        futures = {self.submit(u.fn, *u.args): u.key for u in todo}
+        return lambda progress: self._gather(units, futures, results, store, progress)
+
+    def _run_here(
+        self,
+        units: Sequence[Unit],
+        todo: Sequence[Unit],
+        results: dict[str, Any],
+        store: UnitStore | None,
+        progress: Callable[[str, Any], object] | None,
+    ) -> dict[str, Any]:
+        for k in list(results):
+            if progress:
+                progress(k, results[k])
+        errors: dict[str, BaseException] = {}
+        for u in todo:
+            try:
+                results[u.key] = _finish(u.key, u.fn(*u.args), store, progress)
+            except Exception as e:
+                errors[u.key] = e
+        return _ordered(units, results, errors)
+
+    def _gather(
+        self,
+        units: Sequence[Unit],
+        futures: Mapping[Future[Any], str],
+        results: dict[str, Any],
+        store: UnitStore | None,
+        progress: Callable[[str, Any], object] | None,
+    ) -> dict[str, Any]:
+        for k in list(results):
+            if progress:
+                progress(k, results[k])
+        errors: dict[str, BaseException] = {}
+        for f in as_completed(futures):
+            key = futures[f]
+            try:
+                results[key] = _finish(key, f.result(), store, progress)
+            except Exception as e:
+                errors[key] = _cause(e)
+        return _ordered(units, results, errors)
+
+
+def _finish(
+    key: str, value: Any, store: UnitStore | None, progress: Callable[[str, Any], object] | None
+) -> Any:
+    if store is not None:
+        store.save(key, value)
+    if progress:
+        progress(key, value)
+    return value
+
+
+def _ordered(
+    units: Sequence[Unit], results: Mapping[str, Any], errors: Mapping[str, BaseException]
+) -> dict[str, Any]:
+    if errors:
+        raise UnitsFailed({u.key: errors[u.key] for u in units if u.key in errors})
+    return {u.key: results[u.key] for u in units}
+
+
+def _cause(e: BaseException) -> BaseException:
+    """The unit's own exception out of Ray's wrapper (RayTaskError keeps it as cause)."""
+    inner = getattr(e, "cause", None)
+    return inner if isinstance(inner, BaseException) else e
+
+
+def _import_paths() -> list[str]:
+    """Where this package and its siblings are imported from (the project's root)."""
+    import brake_env
+
+    root = Path(brake_env.__file__).resolve().parent.parent
+    return [str(root), *os.environ.get("PYTHONPATH", "").split(os.pathsep)][:8]
+
+
+# ---------------------------------------------------------------------- unit store
+_SAFE = re.compile(r"[^A-Za-z0-9_.=-]+")
+_ARRAY, _TUPLE, _FLOAT = "$array", "$tuple", "$float"
+SETTINGS = "settings.json"
+
+
+class UnitStore:
+    """Finished units' results in ``directory``: per unit a JSON file and, for its arrays,
+    an ``.npz`` (read back without pickle, its SHA-256 in the JSON, written first: a unit
+    counts as done once its JSON is there, whole). ``settings.json`` records what the run
+    was asked for; a rerun asked for anything else is refused rather than mixed.
+
+    A result is a tree of dicts (string keys), lists, tuples, numpy arrays, strings,
+    numbers, booleans and None.
+
+    Args:
+        directory: Where the units' files go.
+        settings: What the results depend on (JSON): seed, budget, atlas hash...
+
+    Raises:
+        ValueError: ``directory`` holds units of a run with other settings.
+    """
+
+    def __init__(self, directory: str | os.PathLike[str], settings: Mapping[str, Any]):
+        import json
+
+        from brake_env.output import json_safe
+
+        self.directory = Path(directory)
+        want = json.loads(json.dumps(json_safe(dict(settings)), allow_nan=False))
+        path = self.directory / SETTINGS
+        if path.is_file():
+            have = json.loads(path.read_text())
+            diff = sorted(k for k in {*have, *want} if have.get(k) != want.get(k))
+            if diff:
+                shown = ", ".join(f"{k}: {have.get(k)!r} -> {want.get(k)!r}" for k in diff)
+                raise ValueError(
+                    f"{self.directory} holds finished units of a run with other settings"
+                    f" ({shown}); resume with the same settings or write to another --out"
+                )
+        else:
+            write_json(want, path)
+        self.settings = want
+
+    def _stem(self, key: str) -> Path:
+        digest = hashlib.sha256(key.encode()).hexdigest()[:10]
+        return self.directory / f"{_SAFE.sub('_', key)[:60]}-{digest}"
+
+    def __contains__(self, key: str) -> bool:
+        return self._stem(key).with_suffix(".json").is_file()
+
+    def keys(self) -> list[str]:
+        """Keys of the units saved here."""
+        import json
+
+        return sorted(
+            json.loads(p.read_text())["key"]
+            for p in self.directory.glob("*.json")
+            if p.name != SETTINGS
+        )
+
+    def save(self, key: str, value: Any) -> None:
+        """Save a unit's result (arrays first, the JSON that vouches for them last)."""
+        arrays: dict[str, np.ndarray] = {}
+        tree = _encode(value, arrays)
+        stem = self._stem(key)
+        sha = write_arrays(arrays, stem.with_suffix(".npz")) if arrays else None
+        write_json({"key": key, "arrays_sha256": sha, "result": tree}, stem.with_suffix(".json"))
+
+    def load(self, key: str) -> Any:
+        """A saved unit's result.
+
+        Raises:
+            ValueError: The files are not this key's, or its arrays were changed.
+        """
+        import json
+
+        stem = self._stem(key)
+        doc = json.loads(stem.with_suffix(".json").read_text())
+        if doc.get("key") != key:
+            raise ValueError(f"{stem}.json holds unit {doc.get('key')!r}, not {key!r}")
+        sha = doc.get("arrays_sha256")
+        arrays = read_arrays(stem.with_suffix(".npz"), sha, f"unit {key}") if sha else {}
+        return _decode(doc["result"], arrays)
+
+
+def _encode(x: Any, arrays: dict[str, np.ndarray]) -> Any:
+    if isinstance(x, np.ndarray):
+        name = f"a{len(arrays)}"
+        arrays[name] = x
+        return {_ARRAY: name}
+    if isinstance(x, np.generic):
+        x = x.item()
+    if isinstance(x, float) and not np.isfinite(x):
+        return {_FLOAT: repr(x)}
+    if x is None or isinstance(x, str | int | float | bool):
+        return x
+    if isinstance(x, Mapping):
+        bad = [k for k in x if not isinstance(k, str) or k.startswith("$")]
+        if bad:
+            raise TypeError(f"unit results need string keys (not starting with $), got {bad}")
+        return {k: _encode(v, arrays) for k, v in x.items()}
+    if isinstance(x, tuple):
+        return {_TUPLE: [_encode(v, arrays) for v in x]}
+    if isinstance(x, list):
+        return [_encode(v, arrays) for v in x]
+    raise TypeError(f"a unit result cannot hold a {type(x).__name__}")
+
+
+def _decode(x: Any, arrays: Mapping[str, np.ndarray]) -> Any:
+    if isinstance(x, list):
+        return [_decode(v, arrays) for v in x]
+    if not isinstance(x, dict):
+        return x
+    if _ARRAY in x:
+        return arrays[x[_ARRAY]]
+    if _FLOAT in x:
+        return float(x[_FLOAT])
+    if _TUPLE in x:
+        return tuple(_decode(v, arrays) for v in x[_TUPLE])
+    return {k: _decode(v, arrays) for k, v in x.items()}

@@ -1,0 +1,99 @@
+"""The runner: the same results in this process and on Ray, saved per unit, resumed, and
+failures reported by name."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from brake_env.runner import Runner, Unit, UnitsFailed, UnitStore
+
+
+def draw(seed: int, n: int) -> dict:
+    """A unit whose result depends on its arguments alone."""
+    rng = np.random.default_rng(seed)
+    return {"x": rng.normal(size=n), "mean": float(rng.normal()), "tag": (seed, "s"), "nan": np.nan}
+
+
+def fail_on(seed: int, bad: int) -> int:
+    if seed == bad:
+        raise ValueError(f"seed {seed} is bad")
+    return seed * 2
+
+
+def mean_of(shared: np.ndarray, i: int) -> float:
+    return float(shared[i::3].mean())
+
+
+def units(n: int = 5) -> list[Unit]:
+    return [Unit(f"seed={s}", draw, (s, 4)) for s in range(n)]
+
+
+def same(a: dict, b: dict) -> None:
+    assert list(a) == list(b)
+    for k in a:
+        np.testing.assert_array_equal(a[k]["x"], b[k]["x"])
+        assert a[k]["mean"] == b[k]["mean"] and a[k]["tag"] == b[k]["tag"]
+        assert np.isnan(b[k]["nan"])
+
+
+def test_units_give_the_same_results_in_process_and_on_ray(local_ray):
+    here = Runner(0).run(units())
+    with Runner(workers=2) as r:
+        assert r.on_ray
+        big = r.share(np.arange(3000.0))
+        on_ray = r.run(units())
+        means = r.run([Unit(f"m{i}", mean_of, (big, i)) for i in range(3)])
+    same(here, on_ray)
+    assert means == {f"m{i}": float(np.arange(3000.0)[i::3].mean()) for i in range(3)}
+
+
+def test_a_store_resumes_from_the_finished_units(tmp_path):
+    store = UnitStore(tmp_path, {"seed": 0, "n": 4})
+    seen: list[str] = []
+    first = Runner(0).run(units(3), store)
+    again = Runner(0).run(units(5), UnitStore(tmp_path, {"seed": 0, "n": 4}),
+                          progress=lambda k, _: seen.append(k))  # fmt: skip
+    same(first, {k: again[k] for k in first})
+    same(Runner(0).run(units(5)), again)
+    assert sorted(seen) == [f"seed={s}" for s in range(5)]
+    assert store.keys() == [f"seed={s}" for s in range(5)]
+
+
+def test_a_store_refuses_a_run_with_other_settings(tmp_path):
+    UnitStore(tmp_path, {"seed": 0, "n": 4})
+    with pytest.raises(ValueError, match=r"n: 4 -> 5"):
+        UnitStore(tmp_path, {"seed": 0, "n": 5})
+
+
+def test_a_changed_result_file_is_refused(tmp_path):
+    store = UnitStore(tmp_path, {})
+    store.save("a", {"x": np.arange(3)})
+    npz = next(tmp_path.glob("*.npz"))
+    blob = bytearray(npz.read_bytes())
+    blob[-1] ^= 0xFF
+    npz.write_bytes(bytes(blob))
+    with pytest.raises(ValueError, match="unit a"):
+        store.load("a")
+
+
+def test_a_result_that_cannot_be_saved_is_named(tmp_path):
+    with pytest.raises(TypeError, match="set"):
+        UnitStore(tmp_path, {}).save("a", {"x": {1, 2}})
+
+
+@pytest.mark.parametrize("workers", [0, 2])
+def test_failed_units_are_named_after_the_others_are_saved(tmp_path, workers, request):
+    if workers:
+        request.getfixturevalue("local_ray")
+    store = UnitStore(tmp_path, {})
+    todo = [Unit(f"s{s}", fail_on, (s, 2)) for s in range(4)]
+    with Runner(workers) as r, pytest.raises(UnitsFailed, match=r"s2: ValueError: seed 2 is bad"):
+        r.run(todo, store)
+    assert store.keys() == ["s0", "s1", "s3"]
+    assert Runner(0).run(todo[:2] + todo[3:], store) == {"s0": 0, "s1": 2, "s3": 6}
+
+
+def test_duplicate_keys_are_refused():
+    with pytest.raises(ValueError, match="unique"):
+        Runner(0).run([Unit("a", fail_on, (0, 1)), Unit("a", fail_on, (1, 2))])
