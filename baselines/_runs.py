@@ -1,11 +1,10 @@
 """What the baselines read from training logs: how each run ended, its life when known, the
 true RUL, and the pad volumes measured in the workshop (README "Fleet logs").
 
-A run ends at failure when its last row has ``failed`` true; a log without the ``failed``
-column is a set of run-to-failure runs, as in paper 2.1.6. Simulated logs carry the truth
-(``rul_events``), which gives the life of a run even when it was cut short. Any other run
-was removed before failure: it survived its events, which bounds its life from below but
-is never taken as its life (:mod:`baselines._censoring`).
+How a run ended is :func:`brake_env.data.runs.run_ends`'s reading. Simulated logs carry
+the truth (``rul_events``), which gives the life of a run even when it was cut short. A run
+removed before failure survived its events, which bounds its life from below but is never
+taken as its life (:mod:`baselines._censoring`).
 """
 
 from __future__ import annotations
@@ -16,7 +15,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from baselines._censoring import FAILED, MEASURED_VOLUME
+from brake_env.data.runs import run_ends
 
 F64 = NDArray[np.float64]
 
@@ -59,36 +58,23 @@ def training_runs(train_log: pd.DataFrame) -> TrainingRuns:
     """How each run of a validated training log ended (see the module docstring).
 
     Raises:
-        ValueError: An empty log.
+        ValueError: An empty log, or a run marked failed before its last event.
     """
-    if len(train_log) == 0:
-        raise ValueError("the training log has no events")
-    codes, names = pd.factorize(train_log["run_id"], sort=False)
-    event = train_log["event"].to_numpy(dtype=np.int64)
-    last_row = np.zeros(len(names), dtype=np.intp)
-    np.maximum.at(last_row, codes, np.arange(len(codes)))  # events increase within a run
-    last = event[last_row]
+    ends = run_ends(train_log, "the training log")
+    last = ends.last_event
     if "rul_events" in train_log:
-        life = (last + 1 + train_log["rul_events"].to_numpy(dtype=np.int64)[last_row]).astype(
-            np.float64
-        )
-    elif FAILED in train_log:
-        failed = train_log[FAILED].to_numpy(dtype=bool)[last_row]
-        life = np.where(failed, last + 1.0, np.nan)
+        rul = train_log["rul_events"].to_numpy(dtype=np.int64)[ends.last_row]
+        life = (last + 1 + rul).astype(np.float64)
     else:
-        life = last + 1.0
-    if MEASURED_VOLUME in train_log:
-        v = train_log[MEASURED_VOLUME].to_numpy(dtype=np.float64)
-        rows = np.flatnonzero(~np.isnan(v))
-    else:
-        v, rows = np.empty(0), np.empty(0, dtype=np.intp)
+        life = np.where(ends.failed, last + 1.0, np.nan)
+    rows = ends.meas_rows
     return TrainingRuns(
-        names=np.asarray(names.astype(str)),
+        names=ends.names,
         last_event=last,
         life=life,
-        meas_run=codes[rows].astype(np.intp),
-        meas_done=event[rows] + 1.0,
-        meas_volume=v[rows],
+        meas_run=ends.codes[rows],
+        meas_done=train_log["event"].to_numpy(dtype=np.float64)[rows] + 1.0,
+        meas_volume=ends.meas_volume,
     )
 
 

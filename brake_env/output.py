@@ -156,7 +156,9 @@ def write_json(obj: Any, path: str | os.PathLike[str]) -> Path:
 PLAIN_KINDS = frozenset("biufcUS")  # numbers, booleans and fixed-width strings: no objects
 
 
-def write_arrays(arrays: dict[str, np.ndarray], path: str | os.PathLike[str]) -> str:
+def write_arrays(
+    arrays: dict[str, np.ndarray], path: str | os.PathLike[str], compress: bool = False
+) -> str:
     """Write named arrays as ``.npz`` (atomically); returns its SHA-256, for the JSON
     header that vouches for it (:func:`read_arrays`).
 
@@ -167,7 +169,8 @@ def write_arrays(arrays: dict[str, np.ndarray], path: str | os.PathLike[str]) ->
     if bad:
         raise TypeError(f"{path}: arrays {bad} hold Python objects, not numbers or strings")
     buf = io.BytesIO()
-    np.savez(buf, **arrays)  # type: ignore[arg-type]  # numpy's stub: allow_pickle
+    save = np.savez_compressed if compress else np.savez
+    save(buf, **arrays)  # type: ignore[arg-type]  # numpy's stub: allow_pickle
     blob = buf.getvalue()
     with atomic_path(path) as tmp:
         tmp.write_bytes(blob)

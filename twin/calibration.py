@@ -28,7 +28,8 @@ import pandas as pd
 from numpy.typing import NDArray
 from scipy import optimize, special
 
-from brake_env.data.schema import FAILED, MEASURED_VOLUME
+from brake_env.data.runs import RunEnds, run_ends
+from brake_env.data.schema import MEASURED_VOLUME
 from brake_env.model.atlas import Atlas
 from brake_env.model.wear import WearModel
 from twin.config import TwinCalibration, TwinConfig
@@ -52,7 +53,7 @@ class TrainingRuns:
             events done when measured (event + 1) [-] and volume fraction [-].
     """
 
-    names: pd.Index
+    names: NDArray[np.str_]
     codes: NDArray[np.intp]
     seen: NDArray[np.int64]
     failed: NDArray[np.bool_]
@@ -126,60 +127,34 @@ def training_runs(train_log: pd.DataFrame, wear: WearModel) -> TrainingRuns:
         raise ValueError(f"twin.fit: the training log lacks column(s) {missing}")
     if len(train_log) == 0:
         raise ValueError("twin.fit: the training log is empty")
-    codes, names = pd.factorize(train_log["run_id"], sort=False)
     event = train_log["event"].to_numpy()
     if not np.issubdtype(event.dtype, np.integer) or event.min() < 0:
         raise ValueError("twin.fit: column 'event' must hold integers >= 0")
+    ends = run_ends(train_log, "twin.fit")
+    codes, names, failed = ends.codes, ends.names, ends.failed
     seen = np.zeros(len(names), dtype=np.int64)
     np.maximum.at(seen, codes, event.astype(np.int64))
     seen += 1  # events from installation to the end of the last logged one
-    failed = _failed_runs(train_log, codes, names)
     short = np.flatnonzero(failed & (seen < 2))
     if short.size:
         raise ValueError(f"twin.fit: run {names[short[0]]!r} failed within its first event")
-    meas_run, meas_events, meas_volume = _measurements(train_log, codes, names, failed, wear)
+    meas_run, meas_events, meas_volume = _measurements(train_log, ends)
     return TrainingRuns(names, codes, seen, failed, meas_run, meas_events, meas_volume)
 
 
-def _failed_runs(train_log: pd.DataFrame, codes: NDArray[np.intp], names: pd.Index) -> NDArray:
-    """Whether each run ended at failure: its last row is marked ``failed``."""
-    if FAILED not in train_log:
-        return np.ones(len(names), dtype=bool)
-    flag = train_log[FAILED].to_numpy(dtype=bool)
-    last_row = np.zeros(len(names), dtype=np.intp)
-    np.maximum.at(last_row, codes, np.arange(len(codes)))
-    early = np.zeros(len(names), dtype=bool)
-    np.logical_or.at(early, codes, flag & (np.arange(len(codes)) != last_row[codes]))
-    if early.any():
-        raise ValueError(
-            f"twin.fit: run(s) {list(names[early][:5])} are marked {FAILED!r} before their"
-            " last event; a pad fails once, at the end of its run"
-        )
-    out: NDArray[np.bool_] = flag[last_row]
-    return out
-
-
-def _measurements(
-    train_log: pd.DataFrame,
-    codes: NDArray[np.intp],
-    names: pd.Index,
-    failed: NDArray[np.bool_],
-    wear: WearModel,
-) -> tuple[NDArray[np.intp], F64, F64]:
+def _measurements(train_log: pd.DataFrame, ends: RunEnds) -> tuple[NDArray[np.intp], F64, F64]:
     """Measured volumes of the censored runs (those of failed runs add nothing)."""
-    if MEASURED_VOLUME not in train_log:
-        return np.zeros(0, np.intp), np.zeros(0), np.zeros(0)
-    v = train_log[MEASURED_VOLUME].to_numpy(dtype=np.float64)
-    rows = np.flatnonzero(np.isfinite(v) & ~failed[codes])
-    bad = rows[(v[rows] <= 0.0) | (v[rows] > 1.0 + 5 * VOLUME_NOISE)]
+    keep = ~ends.failed[ends.codes[ends.meas_rows]]
+    rows, v = ends.meas_rows[keep], ends.meas_volume[keep]
+    bad = np.flatnonzero((v <= 0.0) | (v > 1.0 + 5 * VOLUME_NOISE))
     if bad.size:
-        i = int(bad[0])
+        i = int(rows[bad[0]])
         raise ValueError(
-            f"twin.fit: column {MEASURED_VOLUME!r}, row {i}, run {names[codes[i]]!r}: a"
-            f" volume fraction of {v[i]:g} is impossible for a pad still in service"
+            f"twin.fit: column {MEASURED_VOLUME!r}, row {i}, run {ends.names[ends.codes[i]]!r}:"
+            f" a volume fraction of {v[bad[0]]:g} is impossible for a pad still in service"
         )
     events = train_log["event"].to_numpy()[rows].astype(np.float64) + 1.0
-    return codes[rows].astype(np.intp), events, v[rows]
+    return ends.codes[rows], events, v
 
 
 def fit_prior(runs: TrainingRuns, wear: WearModel) -> tuple[float, float, int]:

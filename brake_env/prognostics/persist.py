@@ -19,22 +19,18 @@ and restores its state.
 
 from __future__ import annotations
 
-import hashlib
-import io
 import json
 import math
 import os
-import zipfile
 from collections.abc import Mapping
 from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
 
 from brake_env.model.atlas import Atlas
-from brake_env.output import atomic_path, write_text
+from brake_env.output import PLAIN_KINDS, read_arrays, write_arrays, write_text
 from brake_env.prognostics.protocol import Predictor
 from brake_env.prognostics.registry import make_predictor
 
@@ -42,8 +38,6 @@ FORMAT = "brakewear-predictor"
 FORMAT_VERSION = 1
 HEADER = "predictor.json"
 ARRAYS = "arrays.npz"
-# dtype kinds numpy stores and reads back without pickle: bool, ints, floats, complex, text.
-_PLAIN_KINDS = frozenset("biufcUS")
 
 
 def package_version() -> str:
@@ -81,15 +75,12 @@ def save_predictor(
     path = Path(path)
     meta, arrays = predictor.get_state()
     for k, a in arrays.items():
-        if not isinstance(a, np.ndarray) or a.dtype.kind not in _PLAIN_KINDS:
+        if not isinstance(a, np.ndarray) or a.dtype.kind not in PLAIN_KINDS:
             what = a.dtype if isinstance(a, np.ndarray) else type(a).__name__
             raise ValueError(
                 f"{predictor.name}: state array {k!r} is {what}; only numeric or text numpy"
                 " arrays are saved (no pickled objects)"
             )
-    buf = io.BytesIO()
-    np.savez_compressed(buf, **arrays)  # type: ignore[arg-type]  # numpy's stub: allow_pickle
-    blob = buf.getvalue()
     header = {
         "format": FORMAT,
         "format_version": FORMAT_VERSION,
@@ -98,19 +89,19 @@ def save_predictor(
         "atlas_hash": atlas.content_hash,
         "atlas_spec": atlas.spec.to_dict(),
         "package_version": package_version(),
-        "arrays_sha256": hashlib.sha256(blob).hexdigest(),
+        "arrays_sha256": "",
         "meta": _encode(dict(meta)),
         "info": _encode(dict(info or {})),
     }
     try:
-        text = json.dumps(header, indent=2, allow_nan=False) + "\n"
+        json.dumps(header, allow_nan=False)
     except (TypeError, ValueError) as e:
         raise ValueError(f"{predictor.name}: state settings are not JSON ({e})") from None
     if path.exists() and not path.is_dir():
         raise ValueError(f"{path}: exists and is not a directory; a model is a directory")
     path.mkdir(parents=True, exist_ok=True)
-    with atomic_path(path / ARRAYS) as tmp:
-        tmp.write_bytes(blob)
+    header["arrays_sha256"] = write_arrays(dict(arrays), path / ARRAYS, compress=True)
+    text = json.dumps(header, indent=2, allow_nan=False) + "\n"
     write_text(text, path / HEADER)  # last: it vouches for the arrays
     return path
 
@@ -167,20 +158,7 @@ def load_predictor(path: str | os.PathLike[str], atlas: Atlas) -> Predictor:
     path = Path(path)
     header = read_header(path)
     check_atlas(header, atlas.content_hash, path)
-    try:
-        blob = (path / ARRAYS).read_bytes()
-    except OSError as e:
-        raise ValueError(f"model {path}: cannot read {ARRAYS} ({e})") from None
-    if hashlib.sha256(blob).hexdigest() != header["arrays_sha256"]:
-        raise ValueError(
-            f"model {path}: {ARRAYS} is not the file {HEADER} was written with (an interrupted"
-            " or mixed fit); fit again"
-        )
-    try:
-        with np.load(io.BytesIO(blob), allow_pickle=False) as z:
-            arrays: dict[str, NDArray[Any]] = {k: z[k] for k in z.files}
-    except (ValueError, OSError, zipfile.BadZipFile) as e:
-        raise ValueError(f"model {path}: unreadable {ARRAYS} ({e})") from None
+    arrays = read_arrays(path / ARRAYS, str(header["arrays_sha256"]), f"model {path}")
     predictor = make_predictor(str(header["predictor"]), atlas, int(header.get("seed", 0)))
     predictor.set_state(_decode(header["meta"]), arrays)
     return predictor
