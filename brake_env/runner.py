@@ -255,7 +255,8 @@ class UnitStore:
     """Finished units' results in ``directory``: per unit a JSON file and, for its arrays,
     an ``.npz`` (read back without pickle, its SHA-256 in the JSON, written first: a unit
     counts as done once its JSON is there, whole). ``settings.json`` records what the run
-    was asked for; a rerun asked for anything else is refused rather than mixed.
+    was asked for, and the digest of the code that ran (:func:`code_digest`); a rerun asked
+    for anything else, or by other code, is refused rather than mixed.
 
     A result is a tree of dicts (string keys), lists, tuples, numpy arrays, strings,
     numbers, booleans and None.
@@ -274,7 +275,8 @@ class UnitStore:
         from brake_env.output import json_safe
 
         self.directory = Path(directory)
-        want = json.loads(json.dumps(json_safe(dict(settings)), allow_nan=False))
+        settings = {**settings, "code": code_digest()}
+        want = json.loads(json.dumps(json_safe(settings), allow_nan=False))
         path = self.directory / SETTINGS
         if path.is_file():
             have = json.loads(path.read_text())
@@ -303,7 +305,7 @@ class UnitStore:
         return sorted(
             json.loads(p.read_text())["key"]
             for p in self.directory.glob("*.json")
-            if p.name != SETTINGS
+            if p.name != SETTINGS and not p.name.startswith(".")  # not a killed write's temp
         )
 
     def save(self, key: str, value: Any) -> None:
@@ -329,6 +331,23 @@ class UnitStore:
         sha = doc.get("arrays_sha256")
         arrays = read_arrays(stem.with_suffix(".npz"), sha, f"unit {key}") if sha else {}
         return _decode(doc["result"], arrays)
+
+
+def code_digest() -> str:
+    """SHA-256 (first 16 hex digits) of the project's Python sources as imported here: a
+    store written by other code (an edited checkout, another version) is not resumed."""
+    import importlib.util
+
+    h = hashlib.sha256()
+    for pkg in ("brake_env", "twin", "baselines", "agents", "sim2real"):
+        spec = importlib.util.find_spec(pkg)
+        if spec is None or not spec.submodule_search_locations:
+            continue
+        root = Path(next(iter(spec.submodule_search_locations)))
+        for path in sorted(root.rglob("*.py")):
+            h.update(str(path.relative_to(root.parent)).encode())
+            h.update(path.read_bytes())
+    return h.hexdigest()[:16]
 
 
 def _encode(x: Any, arrays: dict[str, np.ndarray]) -> Any:

@@ -5,7 +5,9 @@ so that parsing the command line stays fast).
 - ``simulate --effect NAME[:PARAM=VALUE,...]`` (repeatable): the truth simulator, writing the
   same event-log files as ``brakewear simulate`` (plus ``time_s``);
 - ``diagnose --real FILE [--model ATLAS] --out DIR``: localise, attribute, quantify;
-- ``validate-gap --out DIR --seed S``: withheld-effect validation, confusion matrix;
+- ``validate-gap --out DIR --seed S [--workers N | --ray [ADDRESS]]``: withheld-effect
+  validation, confusion matrix; each case a unit of the runner, saved in ``DIR/units/`` as it
+  finishes, so that a rerun of the same command resumes;
 - the ``make demo`` stage: one withheld-effect diagnosis.
 """
 
@@ -19,7 +21,13 @@ from typing import TYPE_CHECKING, Any
 
 from tqdm import tqdm
 
-from brake_env.cli.common import add_common_args, int_at_least, load_atlas
+from brake_env.cli.common import (
+    add_common_args,
+    add_runner_args,
+    int_at_least,
+    load_atlas,
+    make_runner,
+)
 from brake_env.cli.demo import DemoContext
 from brake_env.cli.simulate import cmd_simulate, dataset_spec
 from brake_env.data.datasets import SPLITS, DatasetSpec, write_dataset
@@ -32,6 +40,7 @@ from sim2real.library import describe_library, parse_effect, registry
 
 if TYPE_CHECKING:
     from sim2real.config import DiagnosisConfig
+    from sim2real.validate import ValidationSpec
 
 _FMT = argparse.ArgumentDefaultsHelpFormatter
 
@@ -151,12 +160,72 @@ def cmd_diagnose(args: argparse.Namespace) -> dict[str, Any]:
 
 # ---------------------------------------------------------------------- validate-gap
 def cmd_validate_gap(args: argparse.Namespace) -> dict[str, Any]:
-    from sim2real.report import validation_figures, validation_text
-    from sim2real.validate import ValidationSpec, validate_gap
+    """``brakewear validate-gap``: every case a unit of the runner, saved in ``OUT/units/``
+    as it finishes; the same command again resumes from the saved cases."""
+    from sim2real.validate import case_key, open_store, selected_cases, validate_gap
 
+    _jobs_alias(args)
     out = Path(args.out)
     atlas = load_atlas(args)
-    spec = ValidationSpec(
+    spec = _validation_spec(args)
+    # Before any work (and before Ray starts): a store of other settings is refused.
+    store = open_store(out / "units", atlas, spec, args.seed, args.only)
+    todo = selected_cases(spec, args.seed, args.only)
+    done = sum(case_key(c) in store for c in todo)
+    if done:
+        print(f"resuming: {done} of {len(todo)} cases already done")
+    t0 = time.perf_counter()
+    with (
+        make_runner(args) as runner,
+        tqdm(desc="validate", unit="case", total=len(todo), disable=args.quiet) as bar,
+    ):
+        r = validate_gap(
+            atlas,
+            spec,
+            args.seed,
+            progress=lambda _: bar.update(),
+            case_filter=args.only,
+            runner=runner,
+            store=store,
+        )
+    r["seconds"] = time.perf_counter() - t0
+    r["settings"] = {
+        "seed": args.seed,
+        **{k: getattr(spec, k) for k in _SPEC_SETTINGS},
+        "only": args.only,
+        "workers": args.workers,
+        "ray": args.ray,
+    }
+    _write_validation(r, out, args.seed)
+    return r
+
+
+_SPEC_SETTINGS = (
+    "seeds_mid",
+    "low_magnitude",
+    "n_controls",
+    "n_out_of_library",
+    "n_runs",
+    "k_mean",
+    "route_block_events",
+)
+
+
+def _jobs_alias(args: argparse.Namespace) -> None:
+    """``--jobs N``, deprecated: ``--workers N`` (``--jobs 1`` was and is: in this process)."""
+    if args.jobs is None:
+        return
+    workers = args.jobs if args.jobs > 1 else 0
+    if args.workers not in (0, workers):
+        raise ValueError(f"--jobs {args.jobs} and --workers {args.workers}: give --workers only")
+    print(f"note: --jobs is deprecated, use --workers {workers}", file=sys.stderr)
+    args.workers = workers
+
+
+def _validation_spec(args: argparse.Namespace) -> ValidationSpec:
+    from sim2real.validate import ValidationSpec
+
+    return ValidationSpec(
         seeds_mid=args.seeds,
         low_magnitude=args.low,
         n_out_of_library=args.out_of_library,
@@ -165,44 +234,25 @@ def cmd_validate_gap(args: argparse.Namespace) -> dict[str, Any]:
         with_rul=not args.no_rul,
         route_block_events=args.route_block_events,
     )
-    t0 = time.perf_counter()
-    with tqdm(desc="validate", unit="case", disable=args.quiet) as bar:
-        r = validate_gap(
-            atlas,
-            spec,
-            args.seed,
-            progress=lambda _: bar.update(),
-            case_filter=args.only,
-            jobs=args.jobs,
-        )
-    r["seconds"] = time.perf_counter() - t0
-    r["settings"] = {
-        "seed": args.seed,
-        "seeds_mid": spec.seeds_mid,
-        "low_magnitude": spec.low_magnitude,
-        "n_controls": spec.n_controls,
-        "n_out_of_library": spec.n_out_of_library,
-        "n_runs": spec.n_runs,
-        "k_mean": spec.k_mean,
-        "route_block_events": spec.route_block_events,
-        "only": args.only,
-        "jobs": args.jobs,
-    }
+
+
+def _write_validation(r: dict[str, Any], out: Path, seed: int) -> None:
+    from sim2real.report import validation_figures, validation_text
+
     write_json(r, out / "validation.json")
     text = validation_text(r)
     figs = validation_figures(r, out)
     write_text(
-        f"# Withheld-effect validation (seed {args.seed})\n\n```\n{text}\n```\n\n"
+        f"# Withheld-effect validation (seed {seed})\n\n```\n{text}\n```\n\n"
         + "\n".join(f"![{p.stem}]({p.name})" for p in figs)
         + "\n",
         out / "validation.md",
     )
     print(text)
     print(
-        f"\nwrote {out}/validation.json, validation.md, confusion.png, shrink.png"
-        f" ({r['seconds']:.0f} s)"
+        f"\nwrote {out}/validation.json, validation.md, confusion.png, shrink.png,"
+        f" units/ ({r['seconds']:.0f} s)"
     )
-    return r
 
 
 # ---------------------------------------------------------------------- demo stage
@@ -311,7 +361,7 @@ def _add_validate_gap(sub: argparse._SubParsersAction[Any]) -> None:
         default=0,
         help="0: independent operating conditions; N: haul-road and pit blocks of N events",
     )
-    v.add_argument(
-        "--jobs", type=int_at_least(1), default=1, help="cases run in parallel processes"
-    )
+    add_runner_args(v)
+    # Deprecated alias of --workers, kept for old scripts (README's examples used it).
+    v.add_argument("--jobs", type=int_at_least(1), default=None, help=argparse.SUPPRESS)
     v.set_defaults(func=cmd_validate_gap)

@@ -9,15 +9,20 @@ must be "none" too: abstention, no false attribution).
 Truth runs are shorter than the paper's (K ten times larger, ~1.2e4 events per pad) and
 fewer (8 per case), to keep the runtime to minutes; the diagnosis sees 4 calibration and 4
 held-out runs.
+
+Each case is one unit of :class:`brake_env.runner.Runner` (README "Running on a cluster"):
+seeded by its own number, so its record is the same in this process and on Ray. With a
+:class:`~brake_env.runner.UnitStore` from :func:`open_store` each record is saved as its
+case finishes and an interrupted validation resumes from the finished cases.
 """
 
 from __future__ import annotations
 
+import dataclasses
+import os
 import time
 from collections.abc import Callable, Sequence
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
-from multiprocessing import get_context
 from typing import Any
 
 import numpy as np
@@ -26,6 +31,8 @@ from numpy.typing import ArrayLike
 from brake_env.data.datasets import DatasetSpec
 from brake_env.model.atlas import Atlas
 from brake_env.model.regime import WearRegime
+from brake_env.prognostics.persist import package_version
+from brake_env.runner import Runner, Unit, UnitStore
 from sim2real.attribute import NONE
 from sim2real.config import DiagnosisConfig
 from sim2real.diagnose import diagnose
@@ -114,41 +121,99 @@ def cases(spec: ValidationSpec, seed: int) -> list[Case]:
     return out
 
 
+def selected_cases(
+    spec: ValidationSpec, seed: int, case_filter: Sequence[str] | None = None
+) -> list[Case]:
+    """The cases :func:`validate_gap` runs: those whose label contains any of
+    ``case_filter`` (all without one), in the order of :func:`cases`."""
+    return [
+        c for c in cases(spec, seed) if not case_filter or any(f in c.label for f in case_filter)
+    ]
+
+
+def case_key(case: Case) -> str:
+    """The case's unit name (labels repeat across seeds; with the seed it is unique)."""
+    return f"{case.label} seed={case.seed}"
+
+
+def store_settings(
+    atlas: Atlas, spec: ValidationSpec, seed: int, case_filter: Sequence[str] | None = None
+) -> dict[str, Any]:
+    """Everything the records depend on; a store of other settings is not resumed. The
+    spec's fields are flat (``n_runs``, ``config.grid_points``...) so that a refusal names
+    the one that changed."""
+    return {
+        "seed": seed,
+        **_flat(dataclasses.asdict(spec)),
+        "only": list(case_filter) if case_filter else None,
+        "atlas_hash": atlas.content_hash,
+        "package_version": package_version(),
+    }
+
+
+def _flat(tree: dict[str, Any], prefix: str = "") -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for k, v in tree.items():
+        out.update(_flat(v, f"{prefix}{k}.") if isinstance(v, dict) else {f"{prefix}{k}": v})
+    return out
+
+
+def open_store(
+    directory: str | os.PathLike[str],
+    atlas: Atlas,
+    spec: ValidationSpec,
+    seed: int,
+    case_filter: Sequence[str] | None = None,
+) -> UnitStore:
+    """The store of finished cases in ``directory`` (created if new).
+
+    Raises:
+        ValueError: ``directory`` holds cases of a validation with other settings.
+    """
+    return UnitStore(directory, store_settings(atlas, spec, seed, case_filter))
+
+
 def validate_gap(
     atlas: Atlas,
     spec: ValidationSpec | None = None,
     seed: int = 0,
     progress: Callable[[str], object] | None = None,
     case_filter: Sequence[str] | None = None,
-    jobs: int = 1,
+    runner: Runner | None = None,
+    store: UnitStore | None = None,
 ) -> dict[str, Any]:
     """Run every case; returns the per-case records, the confusion matrix and the targets.
 
-    ``jobs`` > 1 runs cases in that many worker processes (each case is independent and
-    seeded by its own number, so the records do not depend on ``jobs``).
+    Args:
+        atlas: The nominal model (shared once with every case: :meth:`Runner.share`).
+        spec: What to run (default :class:`ValidationSpec`).
+        seed: Seeds the cases (each its own number, :func:`cases`).
+        progress: Called with ``"label: answer"`` as each case finishes (cases already in
+            ``store`` first).
+        case_filter: Run only the cases whose label contains one of these.
+        runner: Where the cases run (default: one after another in this process). The
+            records are the same, in case order, wherever they run.
+        store: Saved cases (:func:`open_store` with the same arguments): read instead of
+            rerun; new ones are saved as they finish.
+
+    Raises:
+        ValueError: ``store`` was opened with other settings.
+        brake_env.runner.UnitsFailed: Naming the cases that raised (``label seed=N``),
+            after the others finished (and were saved).
     """
     spec = spec or ValidationSpec()
-    todo = [
-        c for c in cases(spec, seed) if not case_filter or any(f in c.label for f in case_filter)
-    ]
-    if jobs <= 1:
-        records = []
-        for case in todo:
-            records.append(run_case(atlas, spec, case))
-            if progress:
-                progress(f"{case.label}: {records[-1]['answer']}")
-    else:
-        with ProcessPoolExecutor(max_workers=jobs, mp_context=get_context("spawn")) as pool:
-            futures = [pool.submit(run_case, atlas, spec, case) for case in todo]
-            try:
-                for f in as_completed(futures):  # the bar moves as each case ends
-                    rec = f.result()
-                    if progress:
-                        progress(f"{rec['case']}: {rec['answer']}")
-            except BaseException:
-                pool.shutdown(wait=False, cancel_futures=True)
-                raise
-            records = [f.result() for f in futures]  # in case order
+    runner = runner or Runner()
+    if store is not None:  # reopening with these settings checks they are the store's
+        open_store(store.directory, atlas, spec, seed, case_filter)
+    shared = runner.share(atlas)
+    todo = selected_cases(spec, seed, case_filter)
+    units = [Unit(case_key(c), run_case, (shared, spec, c)) for c in todo]
+    done = runner.run(
+        units,
+        store,
+        None if progress is None else lambda _, rec: progress(f"{rec['case']}: {rec['answer']}"),
+    )
+    records = list(done.values())
     return {"cases": records, **summarise(records)}
 
 

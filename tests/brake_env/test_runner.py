@@ -97,3 +97,19 @@ def test_failed_units_are_named_after_the_others_are_saved(tmp_path, workers, re
 def test_duplicate_keys_are_refused():
     with pytest.raises(ValueError, match="unique"):
         Runner(0).run([Unit("a", fail_on, (0, 1)), Unit("a", fail_on, (1, 2))])
+
+
+def test_a_store_written_by_other_code_is_not_resumed(tmp_path, monkeypatch):
+    import brake_env.runner as runner
+
+    UnitStore(tmp_path, {"seed": 0})
+    monkeypatch.setattr(runner, "code_digest", lambda: "edited")
+    with pytest.raises(ValueError, match=r"code: '[0-9a-f]{16}' -> 'edited'"):
+        UnitStore(tmp_path, {"seed": 0})
+
+
+def test_a_killed_writes_temporary_file_is_not_a_unit(tmp_path):
+    store = UnitStore(tmp_path, {})
+    store.save("a", 1)
+    (tmp_path / ".b-123.json.99-ab.tmp.json").write_text("{")
+    assert store.keys() == ["a"] and "b" not in store
