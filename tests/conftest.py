@@ -9,9 +9,11 @@ from brake_env.model.atlas import Atlas, AtlasSpec
 
 @pytest.fixture(autouse=True, scope="session")
 def _isolated_cache(tmp_path_factory: pytest.TempPathFactory) -> None:
-    # Never touch the user's ~/.cache from the tests.
+    # Never touch the user's ~/.cache from the tests, nor leave SB3's logger folders in /tmp
+    # (SB3 makes one per learn() that has no tensorboard_log).
     mp = pytest.MonkeyPatch()
     mp.setenv("BRAKEWEAR_CACHE_DIR", str(tmp_path_factory.mktemp("atlas-cache")))
+    mp.setenv("SB3_LOGDIR", str(tmp_path_factory.mktemp("sb3-logs")))
     yield
     mp.undo()
 
