@@ -3,7 +3,9 @@
 Reads the train / ID / OOD event logs of ``brakewear simulate``, fits the chosen predictors
 on the training runs, scores them on the test runs (:mod:`brake_env.prognostics.evaluation`)
 and writes ``metrics.json``, ``table.md``, the figures of paper Figures 10-13 and the MLP's
-weights. The same evaluation is the demo stage ``30-evaluate``.
+weights. The same evaluation is the demo stage ``30-evaluate``. With ``--seeds`` it is run
+once per seed, each seed a unit of work (here or on Ray), and summarised over the seeds
+(:mod:`brake_env.prognostics.seeds_cli`).
 """
 
 from __future__ import annotations
@@ -14,23 +16,32 @@ import json
 import sys
 import time
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import pandas as pd
 from tqdm import tqdm
 
-from brake_env.cli.common import add_common_args, int_at_least, load_atlas
+from brake_env.cli.common import (
+    add_common_args,
+    add_runner_args,
+    add_wear_args,
+    int_at_least,
+    load_atlas,
+)
 from brake_env.cli.demo import DemoContext
-from brake_env.data.datasets import find_logs
+from brake_env.data.datasets import DatasetSpec, find_logs
 from brake_env.data.schema import read_event_log
 from brake_env.model.atlas import Atlas
+from brake_env.model.regime import WearRegime
 from brake_env.output import write_json, write_text
 from brake_env.prognostics.evaluation import Evaluation, EvaluationConfig, evaluate
 from brake_env.prognostics.persist import ARRAYS, HEADER, save_predictor
 from brake_env.prognostics.protocol import Predictor
-from brake_env.prognostics.registry import make_predictor, predictor_names
+from brake_env.prognostics.registry import predictor_names
+from brake_env.prognostics.seeds import fit_all, make_predictors
 
 DEFAULT_PREDICTORS = ("physics", "data", "twin")
+_SIMULATION = ("n_train", "n_id", "n_ood_slow", "n_ood_fast", "k_mean", "k_std", "ood_shift_sigma")
 
 
 def _predictor_list(text: str) -> tuple[str, ...]:
@@ -54,8 +65,9 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
     add_common_args(e, "out/evaluate")
     e.add_argument(
         "--data",
-        required=True,
-        help="directory holding {train,id,ood}.parquet (or .csv), as brakewear simulate writes",
+        default=None,
+        help="directory holding {train,id,ood}.parquet (or .csv), as brakewear simulate"
+        " writes (needed without --seeds)",
     )
     e.add_argument(
         "--predictors",
@@ -73,37 +85,50 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
     e.add_argument(
         "--mlp-epochs", type=int_at_least(1), default=None, help="MLP epochs (default: its config)"
     )
+    _add_seeds_args(e)
     e.set_defaults(func=cmd_evaluate)
 
 
-def _fit_all(
-    predictors: dict[str, Predictor], train: Any, quiet: bool, skipped: dict[str, str] | None
-) -> dict[str, float]:
-    """Fit every predictor; with ``skipped`` given, one that cannot be fitted on these
-    training runs (ValueError) is dropped and its reason recorded instead of raising."""
-    seconds = {}
-    for name, pred in list(predictors.items()):
-        t0 = time.perf_counter()
-        epochs = getattr(getattr(pred, "config", None), "epochs", None)
-        if hasattr(pred, "progress") and epochs:
-            with tqdm(total=epochs, desc=f"fit {name}", unit="epoch", disable=quiet) as bar:
-                setattr(pred, "progress", bar.update)  # noqa: B010 - MLP epoch callback
-                pred.fit(train)
-                setattr(pred, "progress", None)  # noqa: B010
-        else:
-            if not quiet:
-                print(f"fit {name} ...", file=sys.stderr)
-            try:
-                pred.fit(train)
-            except ValueError as e:
-                if skipped is None:
-                    raise ValueError(f"fitting {name}: {e}") from e
-                print(f"evaluate: skipping {name}: {e}", file=sys.stderr)
-                skipped[name] = str(e)
-                del predictors[name]
-                continue
-        seconds[name] = time.perf_counter() - t0
-    return seconds
+def _add_seeds_args(e: argparse.ArgumentParser) -> None:
+    """The multi-seed evaluation's options (:mod:`brake_env.prognostics.seeds_cli`)."""
+    g = e.add_argument_group(
+        "several seeds",
+        "--seeds and the options of what each seed runs; --n-* and --k-* set the dataset each"
+        " seed simulates when --data is not given",
+    )
+    group = cast(argparse.ArgumentParser, g)  # the helpers only call add_argument
+    g.add_argument(
+        "--seeds",
+        nargs="+",
+        type=int,
+        default=None,
+        metavar="S",
+        help="evaluate each of these seeds (instead of --seed), one unit of work each, and"
+        " give the mean and the min-max over them per predictor (OUT/seeds.json, seeds.md;"
+        " OUT/seed-S/ as one --seed writes). With --data every seed fits on the same logs:"
+        " only the MLP changes (its initialisation and minibatches; physics and twin fit"
+        " deterministically). Without --data each seed simulates its own dataset, the"
+        " paper's 30 runs unless the --n-* and --k-* options say otherwise, and fits and"
+        " scores on it",
+    )
+    for name in ("train", "id", "ood-slow", "ood-fast"):
+        g.add_argument(
+            f"--n-{name}",
+            type=int_at_least(0),
+            default=getattr(DatasetSpec, "n_" + name.replace("-", "_")),
+            help=f"{name} runs each seed simulates (without --data)",
+        )
+    add_wear_args(group)
+    g.add_argument(
+        "--seed-figures", action="store_true", help="the figures of every seed under OUT/seed-S/"
+    )
+    add_runner_args(group)
+
+
+def simulation_options(args: argparse.Namespace) -> list[str]:
+    """The dataset options (``--n-*``, ``--k-*``) given other values than their defaults."""
+    defaults = {**dataclasses.asdict(DatasetSpec()), **dataclasses.asdict(WearRegime())}
+    return [k for k in _SIMULATION if getattr(args, k, None) not in (defaults.get(k), None)]
 
 
 def _check_atlas(data_dir: Path, atlas_hash: str) -> None:
@@ -125,6 +150,22 @@ def _check_atlas(data_dir: Path, atlas_hash: str) -> None:
 
 def cmd_evaluate(args: argparse.Namespace, skip_unfittable: bool = False) -> dict[str, Any]:
     """``brakewear evaluate``; ``skip_unfittable`` drops predictors that fail to fit (demo)."""
+    if getattr(args, "seeds", None) is not None:
+        from brake_env.prognostics.seeds_cli import cmd_evaluate_seeds  # it imports this
+
+        return cmd_evaluate_seeds(args)
+    if not args.data:
+        raise ValueError(
+            "evaluate needs --data (a brakewear simulate directory), or --seeds to simulate"
+            " a dataset per seed"
+        )
+    seeds_only = [
+        *(o for o in ("workers", "ray", "seed_figures") if getattr(args, o, None)),
+        *simulation_options(args),
+    ]
+    if seeds_only:
+        opts = ", ".join("--" + o.replace("_", "-") for o in seeds_only)
+        raise ValueError(f"{opts}: options of --seeds (one --seed runs here, on --data)")
     t_start = time.perf_counter()
     out = Path(args.out)
     t0 = time.perf_counter()
@@ -134,7 +175,7 @@ def cmd_evaluate(args: argparse.Namespace, skip_unfittable: bool = False) -> dic
     _check_atlas(Path(args.data), atlas.content_hash)
     predictors = _make_predictors(args, atlas)
     skipped: dict[str, str] | None = {} if skip_unfittable else None
-    fit_s = _fit_all(predictors, logs["train"], args.quiet, skipped)
+    fit_s = fit_all(predictors, logs["train"], args.quiet, skipped)
     if not predictors:
         raise ValueError(f"no predictor could be fitted: {skipped}")
     t0 = time.perf_counter()
@@ -142,36 +183,59 @@ def cmd_evaluate(args: argparse.Namespace, skip_unfittable: bool = False) -> dic
     predict_s = time.perf_counter() - t0
     for name, s in fit_s.items():
         ev.metrics["models"][name]["fit_seconds"] = s
-    saved = _save_models(predictors, out, atlas, args.seed)
-    from brake_env.prognostics.plots import plot_all  # matplotlib: only when plotting
-
-    figs = plot_all(ev, out / "figures")
-    ev.metrics.update(
-        data_dir=str(Path(args.data)),
-        seed=args.seed,
-        atlas_hash=atlas.content_hash,
-        saved_models=saved,
-        skipped=skipped or {},
-        figures={k: str(v.relative_to(out)) for k, v in figs.items()},
-        timing_s={
-            "read_logs": read_s,
-            "fit": fit_s,
-            "predict_and_score": predict_s,
-            "total": time.perf_counter() - t_start,
-        },
+    timing = {"read_logs": read_s, "fit": fit_s, "predict_and_score": predict_s}
+    saved = write_evaluation(
+        ev,
+        out,
+        predictors,
+        atlas,
+        {"data_dir": str(Path(args.data)), "seed": args.seed},
+        skipped or {},
+        timing,
+        t_start,
     )
-    write_json(ev.metrics, out / "metrics.json")
-    write_text(_markdown_tables(ev) + "\n", out / "table.md")
     _print_results(ev, out, saved)
     return {"metrics": ev.metrics, "evaluation": ev, "out": out}
 
 
+def write_evaluation(
+    ev: Evaluation,
+    out: Path,
+    predictors: dict[str, Predictor],
+    atlas: Atlas,
+    data: dict[str, Any],
+    skipped: dict[str, str],
+    timing: dict[str, Any],
+    t_start: float | None = None,
+    figures: bool = True,
+) -> dict[str, list[str]]:
+    """Write ``metrics.json`` (the evaluation's metrics with ``data`` (the data and seed),
+    the atlas hash, the saved models, ``skipped``, the figures and ``timing``, whose
+    ``total`` runs from ``t_start`` when given), ``table.md``, the figures and the MLP's
+    weights under ``out``; returns the saved models' files."""
+    saved = _save_models(predictors, out, atlas, int(data["seed"]))
+    figs: dict[str, Path] = {}
+    if figures:
+        from brake_env.prognostics.plots import plot_all  # matplotlib: only when plotting
+
+        figs = plot_all(ev, out / "figures")
+    if t_start is not None:
+        timing = {**timing, "total": time.perf_counter() - t_start}
+    ev.metrics.update(
+        **data,
+        atlas_hash=atlas.content_hash,
+        saved_models=saved,
+        skipped=skipped,
+        figures={k: str(v.relative_to(out)) for k, v in figs.items()},
+        timing_s=timing,
+    )
+    write_json(ev.metrics, out / "metrics.json")
+    write_text(_markdown_tables(ev) + "\n", out / "table.md")
+    return saved
+
+
 def _make_predictors(args: argparse.Namespace, atlas: Atlas) -> dict[str, Predictor]:
-    predictors = {n: make_predictor(n, atlas, args.seed) for n in args.predictors}
-    if args.mlp_epochs and "data" in predictors:
-        mlp = predictors["data"]
-        mlp.config = dataclasses.replace(mlp.config, epochs=args.mlp_epochs)  # type: ignore[attr-defined]
-    return predictors
+    return make_predictors(args.predictors, atlas, args.seed, args.mlp_epochs)
 
 
 def _predict_and_score(

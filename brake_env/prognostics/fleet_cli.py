@@ -12,6 +12,10 @@ where the predictor gives them and the events since installation:
 - ``traces.parquet``: the estimate after every event of every pad;
 - ``fleet.png``: RUL bars with intervals, and each pad's RUL along its events.
 
+The pads run in units of a few pads (:mod:`~brake_env.prognostics.fleet_units`), in this
+process or on Ray (``--workers``, ``--ray``; README "Running on a cluster"), each saved
+under ``OUT/units/`` as it finishes: an interrupted predict run again resumes there.
+
 Both check what they are given (model header, format, atlas, log columns) before the long
 work, and a channel missing for a whole pad is reported, not silently worked around.
 """
@@ -20,6 +24,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import shutil
 import sys
 import time
 from collections.abc import Callable
@@ -30,12 +35,18 @@ import numpy as np
 import pandas as pd
 from tqdm import tqdm
 
-from brake_env.cli.common import add_common_args, load_atlas
+from brake_env.cli.common import (
+    add_common_args,
+    add_runner_args,
+    int_at_least,
+    load_atlas,
+    make_runner,
+)
 from brake_env.data.datasets import find_logs
 from brake_env.data.schema import FAILED, read_event_log
 from brake_env.model.atlas import Atlas, AtlasSpec, cached_atlas
 from brake_env.output import atomic_path, table, write_json
-from brake_env.prognostics.fleet import ESTIMATE_FIELDS, predict_runs
+from brake_env.prognostics import fleet_units
 from brake_env.prognostics.persist import (
     check_atlas,
     load_predictor,
@@ -44,6 +55,7 @@ from brake_env.prognostics.persist import (
 )
 from brake_env.prognostics.protocol import MEASURED, Predictor, iter_runs
 from brake_env.prognostics.registry import make_predictor, predictor_names
+from brake_env.runner import UnitsFailed, UnitStore
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -79,6 +91,15 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
     )
     p.add_argument("--cache-dir", default=None, help="atlas cache (as for the other commands)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument(
+        "--pads-per-unit",
+        type=int_at_least(1),
+        default=fleet_units.PADS_PER_UNIT,
+        help="pads per unit of work: units run in parallel with --workers/--ray, and an"
+        " interrupted predict resumes from the units saved in OUT/units/ (the estimates do"
+        " not depend on where units run; another chunking moves them by rounding, ~1e-13)",
+    )
+    add_runner_args(p)
     p.set_defaults(func=cmd_predict)
 
 
@@ -149,8 +170,15 @@ def censored_runs(log: pd.DataFrame) -> list[str]:
 
 
 # ------------------------------------------------------------------------------ predict
+UNITS = "units"  # the unit store under --out: removed once the outputs are written
+
+
 def cmd_predict(args: argparse.Namespace) -> pd.DataFrame:
-    """``brakewear predict``; returns the fleet table."""
+    """``brakewear predict``; returns the fleet table.
+
+    The pads run in units of ``--pads-per-unit`` (:mod:`~brake_env.prognostics.fleet_units`),
+    here or on Ray, each saved under ``OUT/units/`` as it finishes, so an interrupted
+    predict resumes; that store goes once the outputs hold every pad."""
     t0 = time.perf_counter()
     header = read_header(args.model)
     atlas_of = _atlas_loader(header, args)  # checks the atlas hash, builds nothing yet
@@ -159,9 +187,13 @@ def cmd_predict(args: argparse.Namespace) -> pd.DataFrame:
     if out.exists() and not out.is_dir():
         raise ValueError(f"--out {out}: exists and is not a directory")
     missing = missing_channels(log)
-    pred = load_predictor(args.model, atlas_of())
-    traces = run_fleet(pred, log, args.quiet)
-    fleet = fleet_table(traces, missing)
+    atlas = atlas_of()
+    pred = load_predictor(args.model, atlas)
+    try:
+        traces, rows = _predict_units(pred, header, atlas, log, args)
+    finally:
+        fleet_units.forget()
+    fleet = fleet_units.sort_table(rows, missing)
     warnings = [
         f"pad {run}: {', '.join(ch)} missing at every event; {pred.name} cannot use"
         f" {'them' if len(ch) > 1 else 'it'} for this pad (a predictor that needs it gives"
@@ -170,14 +202,44 @@ def cmd_predict(args: argparse.Namespace) -> pd.DataFrame:
     ]
     for w in warnings:
         print(f"predict: warning: {w}", file=sys.stderr)
-    out.mkdir(parents=True, exist_ok=True)
     _write_outputs(out, fleet, traces, pred, header, args, warnings)
+    shutil.rmtree(out / UNITS)
     print(table(_display_rows(fleet)))
     print(
         f"\n{len(fleet)} pads, {len(log):,} events in {time.perf_counter() - t0:.1f} s;"
         f" wrote {out}/fleet.csv, fleet.json, traces.parquet, fleet.png"
     )
     return fleet
+
+
+def _predict_units(
+    pred: Predictor,
+    header: dict[str, Any],
+    atlas: Atlas,
+    log: pd.DataFrame,
+    args: argparse.Namespace,
+) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """(traces, unsorted per-pad rows) of every pad, unit by unit (or read back from the
+    store of an interrupted run with the same settings)."""
+    runs = list(iter_runs(log))
+    ppu = args.pads_per_unit
+    settings = fleet_units.store_settings(args.model, args.log, atlas, len(runs), ppu)
+    store = UnitStore(Path(args.out) / UNITS, settings)
+    with (
+        make_runner(args) as runner,
+        tqdm(
+            total=len(log), desc="predict", unit="event", unit_scale=True, disable=args.quiet
+        ) as bar,
+    ):
+        model = runner.share(fleet_units.SavedModel.of(pred, args.model, header, atlas))
+        units = fleet_units.pad_units(model, runner.share(atlas), runs, ppu)
+        try:
+            return fleet_units.run_pads(runner, units, store, bar.update)
+        except UnitsFailed as e:
+            raise ValueError(
+                f"{e}\nthe other units are saved in {store.directory}; run the same command"
+                " again to redo only the failed ones"
+            ) from e
 
 
 def _atlas_loader(header: dict[str, Any], args: argparse.Namespace) -> Callable[[], Atlas]:
@@ -198,47 +260,6 @@ def missing_channels(log: pd.DataFrame) -> dict[str, list[str]]:
     return {
         str(run): [c for c in MEASURED if row[c]] for run, row in allnan.iterrows() if row.any()
     }
-
-
-def run_fleet(pred: Predictor, log: pd.DataFrame, quiet: bool = True) -> pd.DataFrame:
-    """Every pad of ``log`` through ``pred`` (all at once when it has a fleet of its own,
-    :func:`~brake_env.prognostics.fleet.predict_runs`): one row per event, pads in order of
-    first appearance, with ``run_id``, ``event`` and the estimate's columns."""
-    runs = list(iter_runs(log))
-    with tqdm(total=len(log), desc="predict", unit="event", unit_scale=True, disable=quiet) as bar:
-        ests = predict_runs(pred, [ev for _, ev in runs], progress=bar.update)
-    sizes = [len(ev) for _, ev in runs]
-    names = pd.Index([r for r, _ in runs])
-    codes = np.repeat(np.arange(len(runs)), sizes)
-    frame = pd.DataFrame(
-        {
-            "run_id": pd.Categorical.from_codes(codes, names),
-            "event": np.concatenate([ev.event for _, ev in runs]),
-        }
-    )
-    for f in ESTIMATE_FIELDS:
-        if all(getattr(e, f) is not None for e in ests):  # fields the predictor gives
-            frame[f] = np.concatenate([getattr(e, f) for e in ests])
-    return frame
-
-
-def fleet_table(traces: pd.DataFrame, missing: dict[str, list[str]]) -> pd.DataFrame:
-    """One row per pad, at its last logged event, sorted by RUL (most urgent first)."""
-    g = traces.groupby("run_id", observed=True, sort=False)
-    last = g.tail(1).set_index("run_id")
-    fleet = pd.DataFrame(
-        {
-            "run_id": last.index.astype(str),
-            "events_logged": g.size().to_numpy(),
-            "first_event": g["event"].first().to_numpy(),
-            "events_since_install": last["event"].to_numpy() + 1,
-        }
-    )
-    for f in ESTIMATE_FIELDS:
-        if f in last:
-            fleet[f] = last[f].to_numpy()
-    fleet["missing_channels"] = [";".join(missing.get(r, [])) for r in fleet["run_id"]]
-    return fleet.sort_values("rul_mean", kind="stable").reset_index(drop=True)
 
 
 def _display_rows(fleet: pd.DataFrame) -> list[list[str]]:

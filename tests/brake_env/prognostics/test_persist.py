@@ -91,7 +91,9 @@ def test_cut_off_or_mixed_model_directories_are_refused(small_atlas: Atlas, tmp_
     a = save_predictor(NoPrognostics(1000.0), tmp_path / "a", small_atlas)
     b = save_predictor(NoPrognostics(2000.0), tmp_path / "b", small_atlas)
     (a / ARRAYS).write_bytes((b / ARRAYS).read_bytes() + b"\0")
-    with pytest.raises(ValueError, match=r"arrays\.npz is not the file its header was written with"):
+    with pytest.raises(
+        ValueError, match=r"arrays\.npz is not the file its header was written with"
+    ):
         load_predictor(a, small_atlas)
     (b / HEADER).unlink()  # the header is written last: a cut-off save has none
     with pytest.raises(FileNotFoundError, match="cut off"):
