@@ -43,7 +43,8 @@ from brake_env.cli.common import (
     make_runner,
 )
 from brake_env.data.datasets import find_logs
-from brake_env.data.schema import FAILED, read_event_log
+from brake_env.data.runs import run_ends
+from brake_env.data.schema import read_event_log
 from brake_env.model.atlas import Atlas, AtlasSpec, cached_atlas
 from brake_env.output import atomic_path, table, write_json
 from brake_env.prognostics import fleet_units
@@ -163,10 +164,8 @@ def cmd_fit(args: argparse.Namespace) -> Path:
 def censored_runs(log: pd.DataFrame) -> list[str]:
     """Runs whose last event is not marked ``failed`` (removed before failure); none when
     the log has no ``failed`` column (every run then ends at failure)."""
-    if FAILED not in log:
-        return []
-    last = log.groupby("run_id", observed=True, sort=False)[FAILED].last()
-    return [str(r) for r in last.index[~last.to_numpy(dtype=bool)]]
+    ends = run_ends(log, "fit")
+    return [str(r) for r in ends.names[ends.censored]]
 
 
 # ------------------------------------------------------------------------------ predict
