@@ -8,6 +8,7 @@ commands that run them (README "Architecture"; ``brakewear --help`` stays fast).
 from __future__ import annotations
 
 import argparse
+from contextlib import nullcontext
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -16,9 +17,11 @@ from tqdm import tqdm
 from agents.hyperparameters import ALGOS
 from brake_env.cli.common import (
     add_common_args,
+    add_runner_args,
     add_wear_args,
     int_at_least,
     load_atlas,
+    make_runner,
     wear_regime,
 )
 from brake_env.env.config import REGIMES
@@ -28,6 +31,7 @@ from brake_env.prognostics.registry import predictor_names
 if TYPE_CHECKING:
     from agents.compare import CompareConfig
     from brake_env.cli.demo import DemoContext
+    from brake_env.runner import Runner
 
 
 def _names(text: str) -> tuple[str, ...]:
@@ -91,7 +95,6 @@ def cmd_compare(args: argparse.Namespace) -> dict[str, Any]:
         tune_pads=args.tune_pads,
         eval_pads=args.eval_pads,
         n_resamples=args.resamples,
-        workers=args.workers,
         wear=wear_regime(args),
     )
     return compare_and_report(config, args, Path(args.out))
@@ -102,16 +105,25 @@ def compare_and_report(
     args: argparse.Namespace,
     out: Path,
     hyperparams: dict[str, dict[str, Any]] | None = None,
+    runner: Runner | None = None,
+    resume: bool = True,
 ) -> dict[str, Any]:
     """Run the comparison with progress bars; write ``costs.json`` and the figures, print
     the table, the ranking under each cost ratio and the targets. Returns the content of
-    ``costs.json``."""
+    ``costs.json``.
+
+    The units run on ``runner`` (default: the one ``--workers`` and ``--ray`` ask for,
+    :func:`~brake_env.cli.common.make_runner`); ``resume``: keep them in ``out/units`` and
+    reuse those a run with the same settings finished."""
     from agents.compare import run_compare
     from agents.report import cost_rows, print_report, write_figures
 
-    result = run_compare(
-        config, load_atlas(args), out, args.seed, _bar(args), hyperparams=hyperparams
-    )
+    atlas = load_atlas(args)
+    with nullcontext(runner) if runner is not None else make_runner(args) as r:
+        result = run_compare(
+            config, atlas, out, args.seed, _bar(args), hyperparams=hyperparams, runner=r,
+            resume=resume,
+        )  # fmt: skip
     summary = result.to_dict()
     write_json(summary, out / "costs.json")
     figures = write_figures(result, out / "figures")
@@ -123,6 +135,7 @@ def compare_and_report(
 # ---------------------------------------------------------------------- demo
 DEMO_TUNE_PADS, DEMO_EVAL_PADS = 34, 70  # per label: 102 tuning and 210 held-out pads
 DEMO_PREDICTORS = ("none", "physics", "data", "twin", "oracle")  # the paper's three
+DEMO_WORKERS = 2  # a local Ray's CPUs for the demo's pads (in this process without Ray)
 
 
 def demo_compare(ctx: DemoContext) -> tuple[dict[str, Any], str]:
@@ -131,6 +144,7 @@ def demo_compare(ctx: DemoContext) -> tuple[dict[str, Any], str]:
     (too small a budget to train one: the report says so)."""
     from agents.compare import CompareConfig
     from agents.report import markdown_section
+    from brake_env.runner import Runner, ray_available
 
     args = ctx.args
     config = CompareConfig(
@@ -143,7 +157,9 @@ def demo_compare(ctx: DemoContext) -> tuple[dict[str, Any], str]:
         wear=wear_regime(args),
     )
     out = ctx.out / "compare"
-    summary = compare_and_report(config, args, out)
+    # Not resumed: a demo run with other settings rewrites its stages' outputs.
+    with Runner(DEMO_WORKERS) if ray_available() else Runner(0) as runner:
+        summary = compare_and_report(config, args, out, runner=runner, resume=False)
     return summary, markdown_section(summary, "compare")
 
 
@@ -166,9 +182,7 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
         "--curve-pads", type=int_at_least(1), default=40, help="learning-curve pads per label"
     )
     t.add_argument("--eval-pads", type=int_at_least(1), default=100, help="held-out per label")
-    t.add_argument(
-        "--workers", type=int_at_least(0), default=1, help="processes simulating pads meanwhile"
-    )
+    add_runner_args(t, workers=2)  # the agent trains on one while pads are simulated
     t.add_argument("--atlas", default=None, help="atlas .npz instead of the cache")
     _env_args(t)
     t.set_defaults(func=cmd_train)
@@ -189,9 +203,7 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
     c.add_argument("--tune-pads", type=int_at_least(1), default=100, help="per wear label")
     c.add_argument("--eval-pads", type=int_at_least(1), default=1000, help="per wear label")
     c.add_argument("--resamples", type=int_at_least(100), default=4000, help="bootstrap")
-    c.add_argument(
-        "--workers", type=int_at_least(0), default=2, help="processes (0: all in this one)"
-    )
+    add_runner_args(c, workers=2)
     c.add_argument("--atlas", default=None, help="atlas .npz instead of the cache")
     _env_args(c)
     c.set_defaults(func=cmd_compare)

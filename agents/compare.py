@@ -9,37 +9,36 @@ pad by pad (:mod:`agents.pad_study`, :mod:`agents.outcomes`), with paired bootst
 intervals over pads (:mod:`agents.bootstrap`). A rule's decisions do not depend on the cost
 weights except through tuning, so each failure-to-planned ratio of the sensitivity study
 gets its own tuned parameters; agents are priced as trained.
+
+The pads and the agents' training are units of a :class:`~brake_env.runner.Runner`
+(:mod:`agents.study`): in this process or on Ray, the same figures; each kept in
+``<out>/units`` as it finishes, so an interrupted comparison resumes.
 """
 
 from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
 from agents import outcomes as oc
-from agents.pad_study import PadDraws, PadSet
+from agents.pad_study import PadSet
 from agents.policies import PolicyId
 from agents.ranking import rank_policies
-from agents.results import AgentRuns, CompareResult, Timing, Tuning
-from agents.workers import Workers
+from agents.results import CompareResult, Timing, Tuning
+from agents.study import CompareUnits, Progress
 from brake_env.data.datasets import DatasetSpec, make_dataset
 from brake_env.env.config import REGIMES, CostWeights, EnvConfig
 from brake_env.model.atlas import Atlas
 from brake_env.model.regime import WearRegime
 from brake_env.prognostics.protocol import Predictor
 from brake_env.prognostics.registry import make_predictor, predictor_names
-
-if TYPE_CHECKING:
-    from agents.learned import AgentTraining
-
-# progress(label, total) returns a callback advanced by the units done.
-Progress = Callable[[str, int], Callable[[int], object]]
+from brake_env.runner import Runner
 
 ORACLE = PolicyId("oracle")
 REPLACE_ON_FAILURE = PolicyId("replace-on-failure")
@@ -78,9 +77,6 @@ class CompareConfig:
             (``inf``: never replace).
         level: Confidence level of the intervals [-].
         n_resamples: Bootstrap resamples.
-        workers: Processes that simulate pads and train agents side by side (0: all in
-            this process, in order; the same figures). They are spawned, so a script that
-            runs the study with workers needs the ``if __name__ == "__main__":`` guard.
         wear: Distribution of K of the training pads and of every studied pad.
     """
 
@@ -102,7 +98,6 @@ class CompareConfig:
     ages: tuple[float, ...] = AGES
     level: float = 0.95
     n_resamples: int = 4000
-    workers: int = 2
     wear: WearRegime = field(default_factory=WearRegime)
 
     def __post_init__(self) -> None:
@@ -119,8 +114,6 @@ class CompareConfig:
             raise ValueError("give at least one threshold and one fixed-interval age")
         if min(self.thresholds) < 0 or min(self.ages) <= 0:
             raise ValueError("thresholds must be >= 0 and ages > 0")
-        if self.workers < 0:
-            raise ValueError(f"workers must be >= 0, got {self.workers}")
         if not 0 < self.level < 1:
             raise ValueError(f"level must be in (0, 1), got {self.level}")
         if not isinstance(self.wear, WearRegime):
@@ -166,28 +159,6 @@ def fit_predictors(
     return fitted, seconds
 
 
-STUDY_SETS = {"tune": 1, "evaluate": 2}  # seed keys of the tuning and the held-out pads
-
-
-def study_pads(
-    config: CompareConfig,
-    atlas: Atlas,
-    predictors: Mapping[str, Predictor],
-    seed: int,
-    which: str,
-    workers: Workers | None = None,
-    progress: Progress | None = None,
-) -> PadSet:
-    """The tuning (``which="tune"``) or the held-out pads (``"evaluate"``), simulated and
-    run through every predictor once. Their seeds never overlap (and neither meets an
-    agent's training pads, drawn by the env from its own seeds)."""
-    env_config = EnvConfig.from_kwargs(**config.env_kwargs)
-    n = config.tune_pads if which == "tune" else config.eval_pads
-    draws = PadDraws.stratified(env_config.pad_regime, n, [seed, STUDY_SETS[which]])
-    bar = progress(f"{which} pads", len(draws)) if progress else None
-    return (workers or Workers(0)).collect(draws, atlas, env_config, predictors, bar)
-
-
 def run_compare(
     config: CompareConfig,
     atlas: Atlas,
@@ -196,6 +167,8 @@ def run_compare(
     progress: Progress | None = None,
     fitted: Mapping[str, Predictor] | None = None,
     hyperparams: Mapping[str, dict[str, Any]] | None = None,
+    runner: Runner | None = None,
+    resume: bool = True,
 ) -> CompareResult:
     """Fit, simulate, tune, train and evaluate (:meth:`CompareResult.to_dict` is
     ``costs.json``).
@@ -203,27 +176,26 @@ def run_compare(
     Args:
         config: What to run.
         atlas: The brake atlas.
-        out_dir: Trained agents go to ``out_dir/agents/<predictor>``.
+        out_dir: Trained agents go to ``out_dir/agents/<predictor>``, finished units to
+            ``out_dir/units``.
         seed: Seeds the training pads, the agents, the tuning and the held-out pads.
         progress: ``progress(label, total)`` returns a callback advanced by the units done.
         fitted: Already fitted predictors by name (fitted here when missing).
         hyperparams: Agent hyperparameters by predictor (default: the predictor's file).
+        runner: Where the pads are simulated and the agents trained (default: in this
+            process, in order; the same figures anywhere).
+        resume: Keep finished units in ``out_dir/units``, reuse those already there.
+
+    Raises:
+        ValueError: ``out_dir/units`` holds the units of a run with other settings.
     """
     t_start = time.perf_counter()
-    names = tuple(dict.fromkeys((*config.predictors, *config.agent_predictors, "oracle")))
-    have = dict(fitted or {})
-    todo = tuple(n for n in names if n not in have)
-    new, fit_s = fit_predictors(todo, atlas, seed, config.n_train_runs, config.wear)
-    have.update(new)
-    used = {n: have[n] for n in names}
+    study = CompareUnits(config, seed, Path(out_dir), hyperparams)
+    store = study.store(atlas, fitted) if resume else None  # refuses other settings first
+    used, fit_s = _fitted(config, atlas, seed, fitted)
     t0 = time.perf_counter()
-    with Workers(config.workers) as workers:
-        tune_set = study_pads(config, atlas, used, seed, "tune", workers, progress)
-        # The agents train while the held-out pads are simulated.
-        training = _agents(config, have, atlas, Path(out_dir), seed, tune_set, workers, hyperparams)
-        eval_set = study_pads(config, atlas, used, seed, "evaluate", workers, progress)
-        pads_s = time.perf_counter() - t0
-        runs = training if isinstance(training, AgentRuns) else training.evaluate(eval_set)
+    tune_set, eval_set, runs = study.run(runner or Runner(0), store, atlas, used, progress)
+    pads_s = time.perf_counter() - t0
     t0 = time.perf_counter()
     tuning = tune(config, tune_set, id_life(config, atlas))
     tune_s = time.perf_counter() - t0
@@ -249,6 +221,18 @@ def run_compare(
     )
 
 
+def _fitted(
+    config: CompareConfig, atlas: Atlas, seed: int, fitted: Mapping[str, Predictor] | None
+) -> tuple[dict[str, Predictor], dict[str, float]]:
+    """Every predictor the comparison uses, those not given fitted here; the fits' seconds."""
+    names = tuple(dict.fromkeys((*config.predictors, *config.agent_predictors, "oracle")))
+    have = dict(fitted or {})
+    todo = tuple(n for n in names if n not in have)
+    new, fit_s = fit_predictors(todo, atlas, seed, config.n_train_runs, config.wear)
+    have.update(new)
+    return {n: have[n] for n in names}, fit_s
+
+
 def _untuned(config: CompareConfig, tuning: Tuning) -> dict[PolicyId, str]:
     """The tuned families, and why they have no figure, when there were too few pads."""
     if tuning.enough:
@@ -258,33 +242,6 @@ def _untuned(config: CompareConfig, tuning: Tuning) -> dict[PolicyId, str]:
         f" (it needs {config.min_tune_pads} or more)"
     )
     return dict.fromkeys(tuning.parameters, why)
-
-
-def _agents(
-    config: CompareConfig,
-    predictors: Mapping[str, Predictor],
-    atlas: Atlas,
-    out_dir: Path,
-    seed: int,
-    curve_set: PadSet,
-    workers: Workers,
-    hyperparams: Mapping[str, dict[str, Any]] | None,
-) -> AgentTraining | AgentRuns:
-    """The agents' training, started; or, with none to train, why (SB3 imported only if
-    one is trained)."""
-    if config.timesteps < config.min_timesteps:
-        why = (
-            f"not trained: {config.timesteps:,} steps is too small a budget"
-            f" (it needs {config.min_timesteps:,} or more to learn)"
-        )
-        skipped = {PolicyId("agent", n, algo=config.algo): why for n in config.agent_predictors}
-        return AgentRuns(skipped=skipped)
-    if not config.agent_predictors:
-        return AgentRuns()
-    from agents.learned import AgentTraining
-
-    used = {n: predictors[n] for n in config.agent_predictors}
-    return AgentTraining(config, used, atlas, out_dir, seed, curve_set, workers, hyperparams)
 
 
 def ratios(config: CompareConfig) -> tuple[float, ...]:

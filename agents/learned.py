@@ -1,5 +1,6 @@
-"""Learned agents in the cost study: evaluated pad by pad on the study's pads, and their
-learning curve (README "Maintenance cost by predictor").
+"""Learned agents in the cost study: trained as units of the runner (:mod:`agents.units`),
+evaluated pad by pad on the study's pads, and their learning curve (README "Maintenance
+cost by predictor").
 
 A trained agent acting deterministically is a stateless policy of its observation, and its
 observation at a decision point is a function of the pad's age and the predictor's estimates
@@ -14,7 +15,6 @@ import copy
 import json
 import time
 from collections.abc import Callable, Mapping
-from concurrent.futures import Future
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -27,15 +27,15 @@ from agents.features import pad_observations
 from agents.pad_study import PadSet
 from agents.policies import PolicyId
 from agents.results import AgentRuns
+from agents.units import agent_unit, write_trained
 from brake_env.env.brake_wear import REPLACE
 from brake_env.env.config import EnvConfig
-from brake_env.model.atlas import Atlas
 from brake_env.prognostics.protocol import Predictor
 
 if TYPE_CHECKING:
     from agents.compare import CompareConfig
-    from agents.train import TrainedAgent, TrainResult
-    from agents.workers import Workers
+    from agents.train import TrainedAgent
+    from brake_env.runner import Unit
 
 F32 = NDArray[np.float32]
 _CHUNK = 1 << 16  # observations per forward pass
@@ -138,63 +138,43 @@ class LearningCurve(BaseCallback):
         path.write_text(json.dumps(doc, indent=2) + "\n")
 
 
-class AgentTraining:
-    """The agents of a comparison, trained into ``out_dir/agents/<predictor>`` (the best
-    checkpoint on ``curve_pads`` kept) by ``workers``: in the background while the held-out
-    pads are simulated, or here and now without worker processes.
+def agent_units(
+    config: CompareConfig,
+    predictors: Any,
+    atlas: Any,
+    curve_pads: Any,
+    seed: int,
+    hyperparams: Mapping[str, dict[str, Any]] | None = None,
+) -> list[Unit]:
+    """The training of each agent of a comparison as a unit keyed ``agent/<predictor>``
+    (the best checkpoint on ``curve_pads``, the tuning pads, kept); ``predictors``,
+    ``atlas`` and ``curve_pads`` as :meth:`~brake_env.runner.Runner.share` gave them."""
+    hp = hyperparams or {}
+    c = config
+    args = (c.algo, c.timesteps, seed, c.env_kwargs)
+    return [
+        agent_unit(n, predictors, atlas, curve_pads, *args, hp.get(n)) for n in c.agent_predictors
+    ]
 
-    Args:
-        config: The agent predictors, algorithm, budget and env.
-        predictors: Fitted predictors by name.
-        atlas: The atlas of the env.
-        out_dir: The comparison's output directory.
-        seed: Seeds the training.
-        curve_pads: The learning curve's pads (the tuning pads).
-        workers: Where the training runs.
-        hyperparams: Agent hyperparameters by predictor (default: the predictor's file).
-    """
 
-    def __init__(
-        self,
-        config: CompareConfig,
-        predictors: Mapping[str, Predictor],
-        atlas: Atlas,
-        out_dir: Path,
-        seed: int,
-        curve_pads: PadSet,
-        workers: Workers,
-        hyperparams: Mapping[str, dict[str, Any]] | None = None,
-    ) -> None:
-        from agents.train import agent_fields, train_agent
+def agent_runs(
+    config: CompareConfig,
+    predictors: Mapping[str, Predictor],
+    trained: Mapping[str, Any],
+    eval_pads: PadSet,
+    out_dir: Path,
+) -> AgentRuns:
+    """The agents of :func:`agent_units`' results ``trained`` (by predictor) written to
+    ``out_dir/agents/<predictor>``, and each evaluated on ``eval_pads``."""
+    from agents.train import TrainedAgent, agent_fields
 
-        self.config = config
-        self.fields = {n: agent_fields(predictors[n]) for n in config.agent_predictors}
-        self._runs: dict[str, Future[TrainResult]] = {}
-        for name in config.agent_predictors:
-            self._runs[name] = workers.submit(
-                train_agent,
-                predictors[name],
-                atlas,
-                out_dir / "agents" / name,
-                algo=config.algo,
-                timesteps=config.timesteps,
-                seed=seed,
-                env_kwargs=config.env_kwargs,
-                hyperparams=hyperparams.get(name) if hyperparams else None,
-                curve_pads=curve_pads,
-            )
-
-    def evaluate(self, eval_pads: PadSet) -> AgentRuns:
-        """Wait for the agents, then evaluate each on ``eval_pads``."""
-        from agents.train import TrainedAgent
-
-        runs = AgentRuns()
-        for name, run in self._runs.items():
-            res = run.result()
-            runs.seconds[name] = res.seconds
-            runs.curves[name] = res.curve
-            pid = PolicyId("agent", name, algo=self.config.algo)
-            agent = TrainedAgent(res.out_dir)
-            max_age = self.config.episode_events
-            runs.outcomes[pid] = agent_outcomes(agent, eval_pads, self.fields[name], max_age)
-        return runs
+    runs = AgentRuns()
+    for name, unit in trained.items():
+        res = write_trained(unit, out_dir / "agents" / name)
+        runs.seconds[name] = res.seconds
+        runs.curves[name] = res.curve
+        pid = PolicyId("agent", name, algo=config.algo)
+        fields = agent_fields(predictors[name])
+        agent = TrainedAgent(res.out_dir)
+        runs.outcomes[pid] = agent_outcomes(agent, eval_pads, fields, config.episode_events)
+    return runs

@@ -17,7 +17,8 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -95,14 +96,27 @@ class PadDraws:
 
     def subset(self, index: NDArray[np.intp]) -> PadDraws:
         """Pads ``index``, with the study's label weights (a part of a study)."""
+        return PadDraws.from_tree(
+            {
+                "wear_coeff": self.wear_coeff[index],
+                "label": self.label[index],
+                "entropy": self.entropy[index],
+                "weights": self.weights,
+            }
+        )
+
+    def to_tree(self) -> dict[str, Any]:
+        """The draws as arrays and numbers (a unit's result in a
+        :class:`~brake_env.runner.UnitStore`)."""
+        return {f.name: getattr(self, f.name) for f in fields(self)} | {"weights": {**self.weights}}
+
+    @classmethod
+    def from_tree(cls, tree: Mapping[str, Any]) -> PadDraws:
+        """The draws of :meth:`to_tree`, exactly; a part of a study (no label check)."""
         pads = PadDraws.__new__(PadDraws)  # a part need not hold every weighted label
-        for name, value in (
-            ("wear_coeff", self.wear_coeff[index]),
-            ("label", self.label[index]),
-            ("entropy", self.entropy[index]),
-            ("weights", self.weights),
-        ):
-            object.__setattr__(pads, name, value)
+        for f in fields(cls):
+            value = dict(tree[f.name]) if f.name == "weights" else np.asarray(tree[f.name])
+            object.__setattr__(pads, f.name, value)
         return pads
 
 
@@ -156,6 +170,29 @@ class PadSet:
     def strata(self) -> dict[str, NDArray[np.intp]]:
         """Pads of each label that has a weight."""
         return {k: np.flatnonzero(self.draws.label == k) for k in self.draws.weights}
+
+    def to_tree(self) -> dict[str, Any]:
+        """The pad set as arrays, numbers and dicts (a unit's result,
+        :class:`~brake_env.runner.UnitStore`); :meth:`from_tree` gives it back exactly."""
+        tree = {f.name: getattr(self, f.name) for f in fields(self)}
+        tree["draws"] = self.draws.to_tree()
+        return tree
+
+    @classmethod
+    def from_tree(cls, tree: Mapping[str, Any]) -> PadSet:
+        """The pad set of :meth:`to_tree`."""
+        return cls(
+            draws=PadDraws.from_tree(tree["draws"]),
+            decision_interval=int(tree["decision_interval"]),
+            first=np.asarray(tree["first"]),
+            life=np.asarray(tree["life"]),
+            starts=np.asarray(tree["starts"]),
+            measured=np.asarray(tree["measured"]),
+            estimates={
+                n: {f: np.asarray(v) for f, v in e.items()} for n, e in tree["estimates"].items()
+            },
+            seconds={k: float(v) for k, v in tree["seconds"].items()},
+        )
 
 
 def concat_pad_sets(parts: Sequence[PadSet]) -> PadSet:

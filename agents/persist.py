@@ -31,7 +31,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from brake_env.output import atomic_path, write_text
+from brake_env.output import write_arrays, write_text
 
 if TYPE_CHECKING:
     from stable_baselines3 import DQN, PPO
@@ -40,14 +40,9 @@ if TYPE_CHECKING:
     from stable_baselines3.common.vec_env import VecNormalize
 
 __all__ = [
-    "ObsNormalization",
-    "SavedAgent",
-    "convert_trusted_model_zip",
-    "load_agent",
-    "load_sb3_model_trusted",
-    "read_agent_header",
-    "save_agent",
-]
+    "ObsNormalization", "SavedAgent", "convert_trusted_model_zip", "load_agent",
+    "load_sb3_model_trusted", "read_agent", "read_agent_header", "save_agent", "write_agent",
+]  # fmt: skip
 
 FORMAT = "brakewear-agent"
 FORMAT_VERSION = 1
@@ -159,18 +154,13 @@ def save_agent(
     Raises:
         ValueError: A policy, space or setting this format does not describe.
     """
-    path = Path(path)
-    policy = model.policy
-    header, arrays = _describe(policy)
+    header, arrays = _describe(model.policy)
     norm = normalization
     if norm is None:
         norm = ObsNormalization.identity(arrays["space.low"].size)
     elif not isinstance(norm, ObsNormalization):
         norm = ObsNormalization.from_vec_normalize(norm)
     arrays["norm.mean"], arrays["norm.var"] = norm.mean, norm.var
-    buf = io.BytesIO()
-    np.savez(buf, **arrays)  # type: ignore[arg-type]  # numpy's stub: allow_pickle
-    blob = buf.getvalue()
     header = {
         "format": FORMAT,
         "format_version": FORMAT_VERSION,
@@ -181,17 +171,28 @@ def save_agent(
             "epsilon": norm.epsilon,
             "enabled": norm.enabled,
         },
-        "arrays_sha256": hashlib.sha256(blob).hexdigest(),
         "info": dict(info or {}),
     }
+    return write_agent(header, arrays, path)
+
+
+def write_agent(
+    header: Mapping[str, Any], arrays: Mapping[str, NDArray[Any]], path: str | os.PathLike[str]
+) -> Path:
+    """Write a saved agent's header and arrays (as :func:`read_agent` gives them) to
+    directory ``path``: ``agent.npz``, then ``agent.json`` with its SHA-256.
+
+    Raises:
+        ValueError: The header is not standard JSON.
+    """
+    path = Path(path)
     try:
-        text = json.dumps(header, indent=2, allow_nan=False) + "\n"
+        json.dumps(header, allow_nan=False)
     except (TypeError, ValueError) as e:
         raise ValueError(f"save_agent: the header is not standard JSON ({e})") from None
     path.mkdir(parents=True, exist_ok=True)
-    with atomic_path(path / ARRAYS) as tmp:
-        tmp.write_bytes(blob)
-    write_text(text, path / HEADER)  # last: it vouches for the arrays
+    head = {**header, "arrays_sha256": write_arrays(dict(arrays), path / ARRAYS)}
+    write_text(json.dumps(head, indent=2) + "\n", path / HEADER)  # last: it vouches for them
     return path
 
 
@@ -272,6 +273,13 @@ def read_agent_header(path: str | os.PathLike[str]) -> dict[str, Any]:
     return header
 
 
+def read_agent(path: str | os.PathLike[str]) -> tuple[dict[str, Any], dict[str, NDArray[Any]]]:
+    """A saved agent's checked header and arrays, as :func:`write_agent` writes them
+    (to carry an agent elsewhere without its files)."""
+    header = read_agent_header(path)
+    return header, _read_arrays(Path(path), header["arrays_sha256"])
+
+
 def load_agent(path: str | os.PathLike[str]) -> SavedAgent:
     """The agent saved by :func:`save_agent` in directory ``path``; never opens model.zip.
 
@@ -282,8 +290,7 @@ def load_agent(path: str | os.PathLike[str]) -> SavedAgent:
             a class outside the known table, or weights that do not fit the architecture.
     """
     path = Path(path)
-    header = read_agent_header(path)
-    arrays = _read_arrays(path, header["arrays_sha256"])
+    header, arrays = read_agent(path)
     try:
         policy = _build_policy(header, arrays)
         norm = header["normalization"]

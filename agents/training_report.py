@@ -1,5 +1,7 @@
 """``brakewear train``: train an agent, draw its learning curve and set it against the tuned
-rules and the oracle on held-out pads (the cost study's machinery on one predictor)."""
+rules and the oracle on held-out pads (the cost study's machinery on one predictor: its pads
+and the agent are units of the runner of ``--workers``/``--ray``, kept in ``out/units`` so
+that an interrupted run resumes)."""
 
 from __future__ import annotations
 
@@ -8,18 +10,33 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from agents.compare import CompareConfig, fit_predictors, id_life, tune
-from agents.pad_study import PadDraws
+from agents.pad_study import PadDraws, PadSet
 from agents.policies import PolicyId
 from agents.ranking import rank_policies
 from agents.report import cost_rows
 from agents.results import RatioResult
-from agents.workers import Workers
-from brake_env.cli.common import load_atlas, wear_regime
+from agents.units import (
+    UNITS,
+    agent_key,
+    agent_unit,
+    join_pads,
+    open_store,
+    pad_chunks,
+    pad_key,
+    pad_progress,
+    pad_units,
+    write_trained,
+)
+from brake_env.cli.common import load_atlas, make_runner, wear_regime
 from brake_env.env.config import CostWeights, EnvConfig
 from brake_env.output import table, write_json
 
 if TYPE_CHECKING:
     from agents.train import TrainResult
+    from brake_env.model.atlas import Atlas
+    from brake_env.prognostics.protocol import Predictor
+
+STAGES = {"curve": 3, "held-out": 4}  # seed keys of the curve's and the held-out pads
 
 
 def train_and_report(
@@ -27,40 +44,16 @@ def train_and_report(
 ) -> dict[str, Any]:
     """Fit, collect the curve's and the held-out pads, train, evaluate; write
     ``evaluation.json`` and ``figures/learning_curve.png``; print the table."""
-    from agents.hyperparameters import load_hyperparams
     from agents.learned import agent_outcomes
     from agents.plots import plot_learning_curve
-    from agents.train import TrainedAgent, agent_fields, train_agent
+    from agents.train import TrainedAgent, agent_fields
 
     atlas = load_atlas(args)
+    units = _TrainUnits(args, env_kwargs, atlas)
     names = tuple(dict.fromkeys((args.predictor, "oracle")))
     print(f"fitting {', '.join(names)} on {args.n_train_runs} simulated training pads")
     fitted, _ = fit_predictors(names, atlas, args.seed, args.n_train_runs, wear_regime(args))
-    env_config = EnvConfig.from_kwargs(**env_kwargs)
-    draws = [
-        PadDraws.stratified(env_config.pad_regime, n, [args.seed, key])
-        for n, key in ((args.curve_pads, 3), (args.eval_pads, 4))
-    ]
-    hp = load_hyperparams(args.predictor, args.algo, args.hyperparams) if args.hyperparams else None
-    # One worker simulates the held-out pads while this process trains.
-    with Workers(args.workers) as workers:
-        curve_pads = workers.collect(
-            draws[0], atlas, env_config, fitted, progress("curve pads", len(draws[0]))
-        )
-        held_later = workers.collect_later(draws[1], atlas, env_config, fitted)
-        res = train_agent(
-            fitted[args.predictor],
-            atlas,
-            args.out,
-            algo=args.algo,
-            timesteps=args.timesteps,
-            seed=args.seed,
-            env_kwargs=env_kwargs,
-            hyperparams=hp,
-            curve_pads=curve_pads,
-            progress_bar=not args.quiet,
-        )
-        held_out = held_later(progress("held-out pads", len(draws[1])))
+    curve_pads, held_out, res = units.run(atlas, fitted, progress)
     config = CompareConfig(
         predictors=(args.predictor,),
         agent_predictors=(),
@@ -82,6 +75,59 @@ def train_and_report(
     }
     plot_learning_curve({agent.label: res.curve}, out / "figures" / "learning_curve.png", refs)
     return _write(out, res, len(curve_pads), len(held_out), ranked)
+
+
+class _TrainUnits:
+    """The units of ``brakewear train``: the curve's pads; then the agent, trained while the
+    held-out pads are simulated (on the runner of ``--workers``/``--ray``), finished units
+    kept in ``out/units``. The store is opened (and other settings refused) first."""
+
+    def __init__(self, args: argparse.Namespace, env_kwargs: dict[str, Any], atlas: Atlas):
+        from agents.hyperparameters import load_hyperparams
+
+        self.args, self.env_kwargs = args, env_kwargs
+        self.env_config = EnvConfig.from_kwargs(**env_kwargs)
+        per_label = {"curve": args.curve_pads, "held-out": args.eval_pads}
+        self.draws = {
+            s: PadDraws.stratified(self.env_config.pad_regime, per_label[s], [args.seed, key])
+            for s, key in STAGES.items()
+        }
+        self.hp = load_hyperparams(args.predictor, args.algo, args.hyperparams)
+        settings = {
+            **{k: getattr(args, k) for k in ("seed", "predictor", "algo", "timesteps")},
+            **{k: getattr(args, k) for k in ("n_train_runs", "curve_pads", "eval_pads")},
+            "env_kwargs": env_kwargs,
+            "hyperparams": self.hp,
+            "atlas": atlas.content_hash,
+        }
+        keys = [
+            pad_key(s, i) for s, d in self.draws.items() for i in range(len(pad_chunks(len(d))))
+        ]
+        self.out = Path(args.out)
+        self.store = open_store(self.out / UNITS, settings, [*keys, agent_key(args.predictor)])
+
+    def run(
+        self, atlas: Atlas, fitted: dict[str, Predictor], progress: Any
+    ) -> tuple[PadSet, PadSet, TrainResult]:
+        """The curve's pads, the held-out pads and the agent, written to ``out``."""
+        args, draws, store = self.args, self.draws, self.store
+        with make_runner(args) as runner:
+            atlas_ref, used = runner.share(atlas), runner.share(fitted)
+
+            def bar(stage: str) -> Any:
+                return pad_progress(progress, stage, f"{stage} pads", len(draws[stage]))
+
+            units = {s: pad_units(s, draws[s], atlas_ref, self.env_config, used) for s in draws}
+            curve = runner.run(units["curve"], store, bar("curve"))
+            curve_pads = join_pads("curve", draws["curve"], curve)
+            train = agent_unit(
+                args.predictor, used, atlas_ref, runner.share(curve_pads), args.algo,
+                args.timesteps, args.seed, self.env_kwargs, self.hp,
+                not args.quiet and not runner.on_ray,
+            )  # fmt: skip
+            done = runner.start([train, *units["held-out"]], store)(bar("held-out"))
+        held_out = join_pads("held-out", draws["held-out"], done)
+        return curve_pads, held_out, write_trained(done[train.key], self.out)
 
 
 def _write(

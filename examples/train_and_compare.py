@@ -29,6 +29,7 @@ def main(
     eval_pads: int = 100,
     predictors: tuple[str, ...] = ("none", "physics", "twin", "oracle"),
     agent: str = "twin",
+    workers: int = 0,
 ) -> dict[str, Any]:
     """Fit, tune, train and evaluate; return the content of ``costs.json``.
 
@@ -40,6 +41,8 @@ def main(
         tune_pads, eval_pads: Tuning and held-out pads of each wear-regime label.
         predictors: Predictors whose threshold policies are tuned.
         agent: The predictor PPO acts on.
+        workers: CPUs of a local Ray that runs the pads and the training beside each other
+            (0: all in this process; README "Running on a cluster").
     """
     config = CompareConfig(
         predictors=predictors,
@@ -52,8 +55,17 @@ def main(
         eval_pads=eval_pads,
         wear=WearRegime(k_mean, k_mean / 10),
     )
-    args = argparse.Namespace(seed=0, quiet=False, preset="hot-duty", cache_dir=None, atlas=None)
-    return compare_and_report(config, args, Path(out_dir))
+    args = argparse.Namespace(
+        seed=0,
+        quiet=False,
+        preset="hot-duty",
+        cache_dir=None,
+        atlas=None,
+        workers=workers,
+        ray=None,
+    )
+    # resume=False: an example is rerun with other parameters; nothing to pick up from.
+    return compare_and_report(config, args, Path(out_dir), resume=False)
 
 
 if __name__ == "__main__":

@@ -127,7 +127,6 @@ def tiny_config(**kw):
         eval_pads=3,
         min_tune_pads=1,
         n_resamples=200,
-        workers=0,
         episode_events=FAST["episode_events"],
         wear=WearRegime(FAST["k_mean"], FAST["k_std"]),
     )
@@ -135,16 +134,9 @@ def tiny_config(**kw):
 
 
 def test_tiny_comparison_writes_well_formed_costs(atlas, tmp_path):
-    returned = compare_and_report(tiny_config(workers=2), ARGS, tmp_path, {"oracle": TINY})
+    returned = compare_and_report(tiny_config(), ARGS, tmp_path, {"oracle": TINY})
     costs = json.loads((tmp_path / "costs.json").read_text())
     assert set(costs) == set(returned)
-    # Worker processes change where the work runs, not a figure.
-    here = compare_and_report(tiny_config(), ARGS, tmp_path / "here", {"oracle": TINY})
-    for key in ("policies", "gaps", "tuned_parameters", "sensitivity", "learning_curves"):
-        assert here[key] == returned[key] or key == "learning_curves", key
-    assert [p["ratio_to_oracle"] for p in here["learning_curves"]["oracle"]] == [
-        p["ratio_to_oracle"] for p in returned["learning_curves"]["oracle"]
-    ]
     assert costs["pads"] == {
         "tune": {"id": 2, "ood-slow": 2, "ood-fast": 2},
         "evaluate": {"id": 3, "ood-slow": 3, "ood-fast": 3},
@@ -186,6 +178,7 @@ def test_brakewear_compare_and_the_demo_stage_run_on_tiny_budgets(atlas, tmp_pat
     assert rc in (0, None) and (tmp_path / "c" / "costs.json").exists()
     monkeypatch.setattr(agents.cli, "DEMO_TUNE_PADS", 2)
     monkeypatch.setattr(agents.cli, "DEMO_EVAL_PADS", 2)
+    monkeypatch.setattr(agents.cli, "DEMO_WORKERS", 0)  # in this process: no Ray to start
     args = argparse.Namespace(**vars(ARGS), n_train=2, k_mean=1e-5, k_std=None, ood_shift_sigma=6.0)
     ctx = DemoContext(args, tmp_path / "demo", tmp_path / "atlas.npz", tmp_path / "data")
     summary, section = agents.cli.demo_compare(ctx)
@@ -229,7 +222,8 @@ def test_brakewear_train_writes_a_learning_curve_and_a_held_out_table(tmp_path):
     out = tmp_path / "train"
     main(["train", "--out", str(out), "--quiet", "--predictor", "oracle", "--timesteps", "256",
           "--hyperparams", str(hp), "--n-train-runs", "2", "--curve-pads", "1",
-          "--eval-pads", "2", "--k-mean", "1e-5", "--episode-events", "30000"])  # fmt: skip
+          "--eval-pads", "2", "--k-mean", "1e-5", "--episode-events", "30000",
+          "--workers", "0"])  # fmt: skip
     ev = json.loads((out / "evaluation.json").read_text())
     assert ev["pads"] == {"curve": 3, "held_out": 6} and ev["learning_curve"]
     assert {"oracle/ppo", "oracle", "replace-on-failure"} <= set(ev["policies"])
