@@ -41,7 +41,7 @@ VALIDATE = [
 # and 600 held-out pads in chunks of 48, on the paper's predictors, with pads wearing 5x
 # faster than the default so that the in-process run takes minutes.
 COMPARE = [
-    "compare", "--tune-pads", "100", "--eval-pads", "200", "--timesteps", "0",
+    "compare", "--tune-pads", "100", "--eval-pads", "200", "--timesteps", "1",
     "--predictors", "none,physics,data,twin,oracle", "--agents", "", "--resamples", "1000",
     "--k-mean", "1e-5",
 ]  # fmt: skip
