@@ -18,11 +18,8 @@ Loading a ``model.zip`` is possible only through :func:`load_sb3_model_trusted`.
 
 from __future__ import annotations
 
-import hashlib
-import io
 import json
 import os
-import zipfile
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -31,7 +28,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from brake_env.output import write_arrays, write_text
+from brake_env.output import read_arrays, write_arrays, write_text
 
 if TYPE_CHECKING:
     from stable_baselines3 import DQN, PPO
@@ -307,17 +304,7 @@ def load_agent(path: str | os.PathLike[str]) -> SavedAgent:
 
 
 def _read_arrays(path: Path, sha256: str) -> dict[str, NDArray[Any]]:
-    try:
-        blob = (path / ARRAYS).read_bytes()
-    except OSError as e:
-        raise ValueError(f"agent {path}: cannot read {ARRAYS} ({e})") from None
-    if hashlib.sha256(blob).hexdigest() != sha256:
-        raise ValueError(f"agent {path}: {ARRAYS} is not the file {HEADER} was written with")
-    try:
-        with np.load(io.BytesIO(blob), allow_pickle=False) as z:
-            arrays = {k: z[k] for k in z.files}
-    except (ValueError, OSError, zipfile.BadZipFile) as e:
-        raise ValueError(f"agent {path}: unreadable {ARRAYS} ({e})") from None
+    arrays = read_arrays(path / ARRAYS, sha256, f"agent {path}")
     bad = [k for k, a in arrays.items() if a.dtype.kind not in _PLAIN_KINDS]
     if bad:
         raise ValueError(f"agent {path}: {ARRAYS} arrays {bad} are not numeric")

@@ -15,7 +15,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from brake_env.data.runs import run_ends
+from brake_env.data.runs import describe_runs, run_ends
 
 F64 = NDArray[np.float64]
 
@@ -47,11 +47,7 @@ class TrainingRuns:
 
     def describe(self, mask: NDArray[np.bool_], limit: int = 5) -> str:
         """``['a', 'b', ...] (n runs)`` for the runs where ``mask`` is true."""
-        names = [str(n) for n in self.names[mask]]
-        shown = str(names[:limit])
-        if len(names) > limit:
-            shown = shown[:-1] + ", ...]"
-        return f"{shown} ({len(names)} run{'s' if len(names) != 1 else ''})"
+        return describe_runs(self.names, mask, limit)
 
 
 def training_runs(train_log: pd.DataFrame) -> TrainingRuns:

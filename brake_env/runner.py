@@ -19,9 +19,10 @@ from __future__ import annotations
 import hashlib
 import os
 import re
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from concurrent.futures import Future, as_completed
 from dataclasses import dataclass
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -168,49 +169,33 @@ class Runner:
             raise ValueError(f"unit keys must be unique, got {sorted(keys)}")
         results = {k: store.load(k) for k in keys if store is not None and k in store}
         todo = [u for u in units if u.key not in results]
-        if not self.on_ray:
-            return lambda progress: self._run_here(units, todo, results, store, progress)
+        if not self.on_ray:  # each unit runs when its turn comes, in order
+            here = [(u.key, partial(u.fn, *u.args)) for u in todo]
+            return lambda progress: _collect(units, here, results, store, progress)
         futures = {self.submit(u.fn, *u.args): u.key for u in todo}
-        return lambda progress: self._gather(units, futures, results, store, progress)
+        on_ray = ((futures[f], f.result) for f in as_completed(futures))  # as they finish
+        return lambda progress: _collect(units, on_ray, results, store, progress)
 
-    def _run_here(
-        self,
-        units: Sequence[Unit],
-        todo: Sequence[Unit],
-        results: dict[str, Any],
-        store: UnitStore | None,
-        progress: Callable[[str, Any], object] | None,
-    ) -> dict[str, Any]:
-        for k in list(results):
-            if progress:
-                progress(k, results[k])
-        errors: dict[str, BaseException] = {}
-        for u in todo:
-            try:
-                results[u.key] = _finish(u.key, u.fn(*u.args), store, progress)
-            except Exception as e:
-                errors[u.key] = e
-        return _ordered(units, results, errors)
 
-    def _gather(
-        self,
-        units: Sequence[Unit],
-        futures: Mapping[Future[Any], str],
-        results: dict[str, Any],
-        store: UnitStore | None,
-        progress: Callable[[str, Any], object] | None,
-    ) -> dict[str, Any]:
-        for k in list(results):
-            if progress:
-                progress(k, results[k])
-        errors: dict[str, BaseException] = {}
-        for f in as_completed(futures):
-            key = futures[f]
-            try:
-                results[key] = _finish(key, f.result(), store, progress)
-            except Exception as e:
-                errors[key] = _cause(e)
-        return _ordered(units, results, errors)
+def _collect(
+    units: Sequence[Unit],
+    done: Iterable[tuple[str, Callable[[], Any]]],
+    results: dict[str, Any],
+    store: UnitStore | None,
+    progress: Callable[[str, Any], object] | None,
+) -> dict[str, Any]:
+    """The results of ``units``: those in ``results`` already, then each of ``done`` (key,
+    its result's getter) saved and reported as it comes; errors named at the end."""
+    for k in list(results):
+        if progress:
+            progress(k, results[k])
+    errors: dict[str, BaseException] = {}
+    for key, get in done:
+        try:
+            results[key] = _finish(key, get(), store, progress)
+        except Exception as e:
+            errors[key] = _cause(e)
+    return _ordered(units, results, errors)
 
 
 def _finish(

@@ -48,11 +48,16 @@ class RunEnds:
 
     def describe(self, mask: NDArray[np.bool_], limit: int = 5) -> str:
         """``['a', 'b', ...] (n runs)`` for the runs where ``mask`` is true."""
-        names = [str(n) for n in self.names[mask]]
-        shown = str(names[:limit])
-        if len(names) > limit:
-            shown = shown[:-1] + ", ...]"
-        return f"{shown} ({len(names)} run{'s' if len(names) != 1 else ''})"
+        return describe_runs(self.names, mask, limit)
+
+
+def describe_runs(names: NDArray[np.str_], mask: NDArray[np.bool_], limit: int = 5) -> str:
+    """``['a', 'b', ...] (n runs)``: the run ids where ``mask`` is true, for messages."""
+    picked = [str(n) for n in names[mask]]
+    shown = str(picked[:limit])
+    if len(picked) > limit:
+        shown = shown[:-1] + ", ...]"
+    return f"{shown} ({len(picked)} run{'s' if len(picked) != 1 else ''})"
 
 
 def run_ends(log: pd.DataFrame, who: str = "the log") -> RunEnds:

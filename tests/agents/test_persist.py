@@ -224,7 +224,7 @@ def test_bad_headers_and_arrays_are_refused_clearly(trained, tmp_path):
     f = copy("checksum")
     arrays = _arrays(f)
     np.savez(f / ARRAYS, **{**arrays, "norm.mean": arrays["norm.mean"] + 1})
-    with pytest.raises(ValueError, match=r"not the file agent\.json was written with"):
+    with pytest.raises(ValueError, match=r"agent\.npz is not the file its header was written with"):
         load_agent(f)
     with pytest.raises(FileNotFoundError, match=r"no agent\.json"):
         load_agent(tmp_path / "nothing")
