@@ -98,15 +98,16 @@ def cmd_atlas(args: argparse.Namespace) -> dict[str, Any]:
 
 def dataset_spec(args: argparse.Namespace) -> DatasetSpec:
     """The DatasetSpec of the ``--n-*``, ``--k-*``, ``--interpolate-layers`` and
-    ``--route-block-events`` options."""
+    ``--route-block-events`` options (the spec's defaults for those a command lacks)."""
+    default = DatasetSpec()
     return DatasetSpec(
         n_train=args.n_train,
         n_id=args.n_id,
         n_ood_slow=args.n_ood_slow,
         n_ood_fast=args.n_ood_fast,
         wear=wear_regime(args),
-        interpolate_layers=args.interpolate_layers,
-        route_block_events=args.route_block_events,
+        interpolate_layers=getattr(args, "interpolate_layers", default.interpolate_layers),
+        route_block_events=getattr(args, "route_block_events", default.route_block_events),
     )
 
 

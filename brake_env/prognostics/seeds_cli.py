@@ -20,7 +20,8 @@ from typing import Any
 import pandas as pd
 from tqdm import tqdm
 
-from brake_env.cli.common import load_atlas, make_runner, wear_regime
+from brake_env.cli.common import load_atlas, make_runner
+from brake_env.cli.simulate import dataset_spec
 from brake_env.data.datasets import DatasetSpec, find_logs
 from brake_env.data.schema import read_event_log
 from brake_env.model.atlas import Atlas
@@ -32,17 +33,6 @@ from brake_env.prognostics.persist import package_version
 from brake_env.runner import Unit, UnitsFailed, UnitStore
 
 RESULT_FORMAT = 1  # layout of a seed's result; a store of another layout is refused
-
-
-def dataset_spec(args: argparse.Namespace) -> DatasetSpec:
-    """The dataset each seed simulates (``--n-*``, ``--k-*``; default the paper's 30 runs)."""
-    return DatasetSpec(
-        n_train=args.n_train,
-        n_id=args.n_id,
-        n_ood_slow=args.n_ood_slow,
-        n_ood_fast=args.n_ood_fast,
-        wear=wear_regime(args),
-    )
 
 
 def _data(
