@@ -40,7 +40,7 @@ from torch import nn
 
 from baselines._runs import rul_targets, training_runs
 from brake_env._validate import check_positive, from_dict
-from brake_env.prognostics.fleet import SlotFleet
+from brake_env.prognostics.fleet import RowFleet
 from brake_env.prognostics.protocol import EventBatch, Predictor, RULEstimate
 
 F64 = NDArray[np.float64]
@@ -244,11 +244,14 @@ class MLPPredictor(Predictor):
     def _update(self, events: EventBatch) -> RULEstimate:
         return RULEstimate(rul_mean=self.predict(features(events)))
 
-    def fleet(self, n_pads: int) -> MLPFleet:
+    def fleet(self, n_pads: int) -> RowFleet:
         """All pads in one forward pass over the wanted rows (an estimate is per event)."""
         if not self._layers:
             raise RuntimeError("data: call fit() or set_state() before making a fleet")
-        return MLPFleet(self, n_pads)
+        return RowFleet(self.name, n_pads, self._at_rows)
+
+    def _at_rows(self, events: EventBatch, want: NDArray[np.bool_]) -> RULEstimate:
+        return RULEstimate(rul_mean=self.predict(features(events)[want]))
 
     # ---------------------------------------------------------------- state
     def get_state(self) -> tuple[dict[str, Any], dict[str, NDArray[Any]]]:
@@ -292,24 +295,6 @@ class MLPPredictor(Predictor):
         self.loss_history = [float(v) for v in meta.get("loss_history", [])]
         self.fit_seconds = float(meta.get("fit_seconds", 0.0))
         self._set_network(net)
-
-
-class MLPFleet(SlotFleet):
-    """The MLP for many pads: one forward pass over the wanted rows of all of them."""
-
-    def __init__(self, predictor: MLPPredictor, n_pads: int) -> None:
-        super().__init__(predictor.name, n_pads)
-        self.predictor = predictor
-
-    def _update(
-        self,
-        pads: NDArray[np.intp],
-        events: EventBatch,
-        want: NDArray[np.bool_],
-        starts: NDArray[np.intp],
-        slots: NDArray[np.intp],
-    ) -> RULEstimate:
-        return RULEstimate(rul_mean=self.predictor.predict(features(events)[want]))
 
 
 def make_mlp(atlas: object, seed: int = 0) -> MLPPredictor:

@@ -42,7 +42,7 @@ from baselines._runs import TrainingRuns, training_runs
 from brake_env.model.atlas import Atlas
 from brake_env.model.materials import hardness_mpa
 from brake_env.model.wear import WearModel
-from brake_env.prognostics.fleet import SlotFleet
+from brake_env.prognostics.fleet import RowFleet
 from brake_env.prognostics.protocol import EventBatch, Predictor, RULEstimate
 
 ROOM_TEMP_C = 20.0
@@ -161,10 +161,13 @@ class PhysicsPredictor(Predictor):
     def _update(self, events: EventBatch) -> RULEstimate:
         return self._estimate(events.event)
 
-    def fleet(self, n_pads: int) -> PhysicsFleet:
+    def fleet(self, n_pads: int) -> RowFleet:
         """All pads in one call: the line depends on the event index only."""
         self._estimate(np.zeros(1, dtype=np.int64))  # fitted?
-        return PhysicsFleet(self, n_pads)
+        return RowFleet(self.name, n_pads, self._at_rows)
+
+    def _at_rows(self, events: EventBatch, want: NDArray[np.bool_]) -> RULEstimate:
+        return self._estimate(events.event[want])
 
     def get_state(self) -> tuple[dict[str, Any], dict[str, NDArray[Any]]]:
         if self.k_avg is None:
@@ -188,24 +191,6 @@ class PhysicsPredictor(Predictor):
             index = pd.Index([str(r) for r in arrays["run_ids"]], name="run_id")
             self.k_runs = pd.Series(np.asarray(arrays["k_runs"], np.float64), index=index, name="k")
         self.set_k(float(meta["k_avg"]))
-
-
-class PhysicsFleet(SlotFleet):
-    """The physics line for many pads: one vectorised evaluation at the wanted rows."""
-
-    def __init__(self, predictor: PhysicsPredictor, n_pads: int) -> None:
-        super().__init__(predictor.name, n_pads)
-        self.predictor = predictor
-
-    def _update(
-        self,
-        pads: NDArray[np.intp],
-        events: EventBatch,
-        want: NDArray[np.bool_],
-        starts: NDArray[np.intp],
-        slots: NDArray[np.intp],
-    ) -> RULEstimate:
-        return self.predictor._estimate(events.event[want])
 
 
 def make_physics(atlas: Atlas, seed: int = 0) -> PhysicsPredictor:

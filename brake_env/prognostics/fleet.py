@@ -310,3 +310,33 @@ class SlotFleet(Fleet):
     ) -> RULEstimate:
         """Estimates at the rows ``want``, in row order; ``starts``/``slots`` give each
         slot's run of rows."""
+
+
+class RowFleet(SlotFleet):
+    """The fleet of a predictor whose estimate at an event depends on that event alone (it
+    carries nothing from one event to the next): one call over the wanted rows of all pads.
+
+    Args:
+        name: The predictor's name.
+        n_pads: Slots.
+        estimate: ``estimate(events, want)``: the estimates at the rows ``want`` of ``events``.
+    """
+
+    def __init__(
+        self,
+        name: str,
+        n_pads: int,
+        estimate: Callable[[EventBatch, NDArray[np.bool_]], RULEstimate],
+    ) -> None:
+        super().__init__(name, n_pads)
+        self._estimate = estimate
+
+    def _update(
+        self,
+        pads: NDArray[np.intp],
+        events: EventBatch,
+        want: NDArray[np.bool_],
+        starts: NDArray[np.intp],
+        slots: NDArray[np.intp],
+    ) -> RULEstimate:
+        return self._estimate(events, want)
