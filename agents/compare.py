@@ -28,7 +28,7 @@ import numpy as np
 
 from agents import outcomes as oc
 from agents.pad_study import PadSet
-from agents.policies import PolicyId
+from agents.policies.rules import PolicyId
 from agents.ranking import rank_policies
 from agents.results import CompareResult, Timing, Tuning
 from agents.study import CompareUnits, Progress

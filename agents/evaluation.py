@@ -21,7 +21,7 @@ import gymnasium as gym
 import numpy as np
 from numpy.typing import NDArray
 
-from agents.policies import Policy, RULThreshold
+from agents.policies.rules import Policy, RULThreshold
 from brake_env.env.config import CostWeights
 from brake_env.env.pads import RetiredPad
 from brake_env.env.wrappers import RULObservation

@@ -22,7 +22,7 @@ from numpy.typing import NDArray
 
 from agents.outcomes import observed
 from agents.pad_study import PadSet
-from agents.policies import AGE_INDEX, RUL_INDEX
+from agents.policies.rules import AGE_INDEX, RUL_INDEX
 
 F32 = NDArray[np.float32]
 

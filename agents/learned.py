@@ -25,7 +25,7 @@ from stable_baselines3.common.callbacks import BaseCallback
 from agents import outcomes as oc
 from agents.features import pad_observations
 from agents.pad_study import PadSet
-from agents.policies import PolicyId
+from agents.policies.rules import PolicyId
 from agents.results import AgentRuns
 from agents.units import agent_unit, write_trained
 from brake_env.env.brake_wear import REPLACE

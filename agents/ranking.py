@@ -12,7 +12,7 @@ import numpy as np
 from agents import outcomes as oc
 from agents.bootstrap import Intervals, bootstrap_figures
 from agents.pad_study import PadSet
-from agents.policies import PolicyId
+from agents.policies.rules import PolicyId
 from agents.results import Estimate, Gap, PolicyRow, RatioResult, Tuning
 
 if TYPE_CHECKING:

@@ -1,6 +1,6 @@
 """What the cost comparison returns (:class:`CompareResult`) and writes as ``costs.json``.
 
-Policies are keyed by :class:`~agents.policies.PolicyId`; their labels become the keys of
+Policies are keyed by :class:`~agents.policies.rules.PolicyId`; their labels become the keys of
 the JSON, whose layout is described in the README ("Maintenance cost by predictor").
 """
 
@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from agents.policies import PolicyId
+from agents.policies.rules import PolicyId
 
 if TYPE_CHECKING:
     from agents.compare import CompareConfig

@@ -10,7 +10,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from agents.pad_study import PadDraws, PadSet
-from agents.policies import PolicyId
+from agents.policies.rules import PolicyId
 from agents.results import AgentRuns
 from agents.units import (
     UNITS,

@@ -6,7 +6,7 @@ from __future__ import annotations
 import math
 from typing import TYPE_CHECKING
 
-from agents.policies import PolicyId
+from agents.policies.rules import PolicyId
 from agents.results import Estimate, PolicyRow, RatioResult, Target
 
 if TYPE_CHECKING:

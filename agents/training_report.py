@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING, Any
 
 from agents.compare import CompareConfig, fit_predictors, id_life, tune
 from agents.pad_study import PadDraws, PadSet
-from agents.policies import PolicyId
+from agents.policies.rules import PolicyId
 from agents.ranking import rank_policies
 from agents.report import cost_rows
 from agents.results import RatioResult

@@ -17,7 +17,7 @@ from typing import Any
 import gymnasium as gym
 
 import brake_env  # noqa: F401  (registers BrakeWear-v0)
-from agents.policies import RULThreshold
+from agents.policies.rules import RULThreshold
 from brake_env.data.datasets import DatasetSpec, make_dataset
 from brake_env.env.brake_wear import default_atlas
 from brake_env.env.wrappers import RULObservation

@@ -10,7 +10,7 @@ from agents import outcomes as oc
 from agents.bootstrap import bootstrap_figures
 from agents.compare import CompareConfig, tune
 from agents.pad_study import PadDraws, PadSet
-from agents.policies import PolicyId
+from agents.policies.rules import PolicyId
 from agents.ranking import rank_policies
 from brake_env.env.config import CostWeights
 

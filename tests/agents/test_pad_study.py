@@ -10,7 +10,7 @@ from agents import outcomes as oc
 from agents.compare import fit_predictors
 from agents.features import AgentFeatures, pad_observations
 from agents.pad_study import PadDraws, collect_pads
-from agents.policies import ReplaceOnFailure, RULThreshold
+from agents.policies.rules import ReplaceOnFailure, RULThreshold
 from brake_env.env.brake_wear import BrakeWearEnv
 from brake_env.env.config import EnvConfig
 from brake_env.env.wrappers import RULObservation

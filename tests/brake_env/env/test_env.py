@@ -12,7 +12,7 @@ from gymnasium.utils.env_checker import check_env as gym_check_env
 from stable_baselines3.common.env_checker import check_env as sb3_check_env
 
 import brake_env  # noqa: F401  (registers BrakeWear-v0)
-from agents.policies import ReplaceOnFailure, RULThreshold
+from agents.policies.rules import ReplaceOnFailure, RULThreshold
 from brake_env.env.brake_wear import OBS_NAMES, BrakeWearEnv
 from brake_env.env.config import CostWeights, EnvConfig
 from brake_env.env.pads import RetiredPad

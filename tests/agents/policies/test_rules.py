@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from agents.evaluation import compare_policies, oracle_policy, run_episodes, summary_rows
-from agents.policies import (
+from agents.policies.rules import (
     AGE_INDEX,
     FixedInterval,
     Policy,

@@ -1,0 +1,1 @@
+"""Rule-based maintenance policies: anything with ``predict()`` that needs no learning."""
