@@ -16,7 +16,7 @@ up to an age drawn uniformly in their life (one fleet update), and slot ``i`` of
 ``n`` starts as a copy of template ``i % TEMPLATES`` (its slot arrays' rows).
 
 Scenario 2, the cost study: ``--pads`` pad lives of the default ``brakewear compare`` regime
-through ``agents.pad_study.collect_pads`` (simulation and each predictor's fleet over the
+through ``agents.study.pads.collect_pads`` (simulation and each predictor's fleet over the
 life, estimates at the decision points), label by label; CPU seconds per pad life by stage
 (``collect_pads``' own stage clock read as CPU time) and the pickled bytes of the result.
 
@@ -52,9 +52,10 @@ from unittest import mock
 
 import numpy as np
 
-from agents import pad_study
-from agents.compare import CompareConfig, fit_predictors
-from agents.pad_study import GROUP, PadDraws, collect_pads
+from agents.study import pads as pad_study
+from agents.study.config import StudyConfig
+from agents.study.pads import GROUP, PadDraws, collect_pads
+from agents.study.tuning import fit_predictors
 from brake_env.data.datasets import measure
 from brake_env.env.config import EnvConfig
 from brake_env.model.atlas import Atlas, cached_atlas
@@ -491,8 +492,8 @@ def main() -> dict[str, Any]:
     args = parse_args()
     atlas = cached_atlas()
     atlas_loaded = len(pickle.dumps(atlas, 5))  # before anything builds its lookup
-    cfg = CompareConfig()
-    env = EnvConfig.from_kwargs(**cfg.env_kwargs)
+    cfg = StudyConfig()
+    env = cfg.env
     names = tuple(dict.fromkeys((*args.predictors, *(cfg.predictors if args.pads else ()))))
     fitted, fit_s = fit_predictors(names, atlas, args.seed, cfg.n_train_runs, cfg.wear)
     src = simulate_sources(atlas, env, args.seed)
@@ -516,7 +517,7 @@ def main() -> dict[str, Any]:
         study = study_cost(atlas, env, {n: fitted[n] for n in cfg.predictors}, args)
         fig.update(study=study, study_extrapolated=extrapolate_study(study, args))
         print(
-            f"\nScenario 2: cost-study pad lives ({cfg.regime} regime, decision interval"
+            f"\nScenario 2: cost-study pad lives ({cfg.env.regime} regime, decision interval"
             f" {cfg.decision_interval}), CPU\n"
         )
         print(study_tables(study, fig["study_extrapolated"]))

@@ -3,7 +3,7 @@ policies and the oracle by the maintenance cost they lead to.
 
 Run: ``python examples/train_and_compare.py [OUT_DIR]`` (a few minutes on 2 cores). Every
 policy is evaluated on the same held-out pads, with paired bootstrap intervals over pads;
-prints the cost table and the targets and writes ``costs.json`` and the figures to OUT_DIR
+prints the cost table and writes ``costs.json`` and the figures to OUT_DIR
 (default out/example_compare). Fast-wearing pads (K five times the paper's) keep it short;
 ``brakewear compare`` is the same with every predictor at the full budget (README,
 "Maintenance cost by predictor").
@@ -11,14 +11,17 @@ prints the cost table and the targets and writes ``costs.json`` and the figures 
 
 from __future__ import annotations
 
-import argparse
 import sys
 from pathlib import Path
 from typing import Any
 
-from agents.cli import compare_and_report
-from agents.compare import CompareConfig
+from agents.commands.cli import compare_and_report
+from agents.study.config import StudyConfig
+from brake_env.env.config import EnvConfig
+from brake_env.model.atlas import AtlasSpec, cached_atlas
+from brake_env.model.params import BrakeModel
 from brake_env.model.regime import WearRegime
+from brake_env.runner import Runner, ray_available
 
 
 def main(
@@ -44,28 +47,24 @@ def main(
         workers: CPUs of a local Ray that runs the pads and the training beside each other
             (0: all in this process; README "Running on a cluster").
     """
-    config = CompareConfig(
+    config = StudyConfig(
+        env=EnvConfig.from_kwargs(
+            regime="mixed",
+            decision_interval=100,  # ~240 decisions a pad life, as at the paper's K with 500
+            episode_events=100_000,
+            **WearRegime(k_mean, k_mean / 10).env_kwargs(),
+        ),
         predictors=predictors,
         agent_predictors=(agent,),
         timesteps=timesteps,
         min_timesteps=50_000,
-        decision_interval=100,  # ~240 decisions a pad life, as at the paper's K with 500
-        episode_events=100_000,
         tune_pads=tune_pads,
         eval_pads=eval_pads,
-        wear=WearRegime(k_mean, k_mean / 10),
     )
-    args = argparse.Namespace(
-        seed=0,
-        quiet=False,
-        preset="hot-duty",
-        cache_dir=None,
-        atlas=None,
-        workers=workers,
-        ray=None,
-    )
-    # resume=False: an example is rerun with other parameters; nothing to pick up from.
-    return compare_and_report(config, args, Path(out_dir), resume=False)
+    atlas = cached_atlas(AtlasSpec(model=BrakeModel.preset("hot-duty")))
+    with Runner(workers) if workers and ray_available() else Runner(0) as runner:
+        # resume=False: an example is rerun with other parameters; nothing to pick up from.
+        return compare_and_report(config, atlas, Path(out_dir), 0, runner, resume=False)
 
 
 if __name__ == "__main__":

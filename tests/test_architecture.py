@@ -8,6 +8,8 @@ from pathlib import Path
 
 import pytest
 
+from tests.import_graph import cycles, graph, inner_imports_by_reason
+
 ROOT = Path(__file__).resolve().parents[1]
 DOWNSTREAM = {"twin", "baselines", "agents", "sim2real"}
 HEAVY = {"torch", "stable_baselines3"}
@@ -95,3 +97,57 @@ def test_brake_env_stages_import_only_earlier_stages() -> None:
                 if target not in allowed:
                     bad.append(f"{path.relative_to(ROOT)} imports brake_env.{target}")
     assert not bad, bad
+
+
+# ---------------------------------------------------------------------- import graph
+def test_no_import_circle_even_through_imports_inside_functions() -> None:
+    """An import placed inside a function still runs: a circle through one is a circle."""
+
+    assert cycles(graph()) == []
+
+
+def test_imports_inside_functions_only_for_heavy_libraries_or_commands() -> None:
+    """A project import inside a function must not dodge a circle (the rooms would be
+    wrong); it is there only to load a heavy library late, or a command's implementation
+    when that command runs (``brakewear --help`` stays fast)."""
+
+    by_reason = inner_imports_by_reason(graph())
+    assert by_reason["circle"] == [] and by_reason["none"] == [], by_reason
+
+
+def test_the_import_graph_finds_circles_and_reasons(tmp_path) -> None:
+    """The counter on a made-up tree: a circle through a function-level import is found and
+    named as such; a top-level chain is not a circle."""
+
+    pkg = tmp_path / "agents"
+    pkg.mkdir()
+    (pkg / "__init__.py").write_text("")
+    (pkg / "a.py").write_text("from agents.b import x\n")
+    (pkg / "b.py").write_text("x = 1\ndef f():\n    from agents import a\n")
+    (pkg / "c.py").write_text("import torch\n")
+    (pkg / "d.py").write_text("def g():\n    import agents.c\n")
+    mods = graph(tmp_path)
+    assert cycles(mods) == [["agents.a", "agents.b"]]
+    assert cycles(mods, with_inner=False) == []
+    reasons = inner_imports_by_reason(mods)
+    assert reasons["circle"] == ["agents.b -> agents.a"]
+    assert reasons["heavy"] == ["agents.d -> agents.c"]
+
+
+# agents' sub-packages in import order: each imports only the ones before it.
+AGENTS_ORDER = ("policies", "study", "learning", "commands")
+
+
+def test_agents_sub_packages_import_one_way() -> None:
+
+    bad = []
+    for name, m in graph().items():
+        parts = name.split(".")
+        if parts[0] != "agents" or len(parts) < 3:
+            continue
+        rank = AGENTS_ORDER.index(parts[1])
+        for t in m.top | m.inner:
+            tp = t.split(".")
+            if tp[0] == "agents" and len(tp) > 1 and AGENTS_ORDER.index(tp[1]) > rank:
+                bad.append(f"{name} -> {t}")
+    assert not bad, f"agents imports against its order {AGENTS_ORDER}: {bad}"

@@ -71,7 +71,7 @@ def test_wheel_installs_and_trains_outside_the_source_tree(tmp_path: Path) -> No
     _run(venv / "bin" / "brakewear", *train.split(), cwd=work, env=env)
     out = work / "out"
     assert (out / "model.zip").is_file() and (out / "evaluation.json").is_file()
-    # The hyperparameters came from the installed package's agents/hyperparams/none.toml.
+    # The hyperparameters came from the installed package's agents/learning/hyperparams/none.toml.
     with open(ROOT / "agents" / "hyperparams" / "none.toml", "rb") as f:
         shipped = tomllib.load(f)["ppo"]
     assert json.loads((out / "train.json").read_text())["hyperparams"] == shipped

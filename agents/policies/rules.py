@@ -187,3 +187,10 @@ class PolicyId:
 
     def __str__(self) -> str:
         return self.label
+
+
+ORACLE = PolicyId("oracle")
+REPLACE_ON_FAILURE = PolicyId("replace-on-failure")
+FIXED_INTERVAL = PolicyId("fixed-interval")
+# The estimate field a threshold family acts on.
+ESTIMATE_FIELD = {"threshold": "rul_mean", "lower-threshold": "rul_lower"}

@@ -203,3 +203,8 @@ class EnvConfig:
         if isinstance(kwargs.get("noise"), dict):
             kwargs["noise"] = from_dict(SensorNoise, kwargs["noise"])
         return dataclasses.replace(base or cls(), **kwargs)
+
+    def to_kwargs(self) -> dict[str, Any]:
+        """Every field as JSON-ready keyword arguments: ``from_kwargs(**to_kwargs())`` gives
+        this config back (saved beside what was trained or studied on it)."""
+        return dataclasses.asdict(self)

@@ -7,7 +7,6 @@ import json
 import numpy as np
 import pytest
 
-from agents.evaluation import compare_policies, oracle_policy, run_episodes, summary_rows
 from agents.policies.rules import (
     AGE_INDEX,
     FixedInterval,
@@ -16,6 +15,7 @@ from agents.policies.rules import (
     ReplaceOnFailure,
     RULThreshold,
 )
+from agents.study.episodes import compare_policies, oracle_policy, run_episodes, summary_rows
 from brake_env.env.brake_wear import BrakeWearEnv
 from brake_env.env.wrappers import RULObservation
 from brake_env.prognostics.protocol import NoPrognostics

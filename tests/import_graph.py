@@ -1,0 +1,203 @@
+"""The project's import graph, read from the source (no import runs): which module imports
+which, at module level or inside a function, for the architecture tests and the before/after
+counts of README "Architecture"."""
+
+from __future__ import annotations
+
+import ast
+from dataclasses import dataclass, field
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+PACKAGES = ("brake_env", "twin", "baselines", "agents", "sim2real")
+# Libraries whose import takes long or pulls a large runtime: importing them inside the
+# function that needs them keeps `brakewear --help` and light commands fast.
+HEAVY = frozenset(
+    {"torch", "stable_baselines3", "sb3_contrib", "ray", "matplotlib", "scipy", "pyarrow",
+     "optuna", "pettingzoo", "tensorboard", "progpy", "rl_zoo3", "supersuit", "torchrl"}
+)  # fmt: skip
+
+
+@dataclass
+class Module:
+    name: str
+    path: Path
+    top: set[str] = field(default_factory=set)  # project modules imported at module level
+    inner: set[str] = field(default_factory=set)  # project modules imported inside functions
+    heavy_top: set[str] = field(default_factory=set)  # heavy libraries at module level
+
+
+def _module_name(path: Path, root: Path = ROOT) -> str:
+    parts = list(path.relative_to(root).with_suffix("").parts)
+    if parts[-1] == "__init__":
+        parts.pop()
+    return ".".join(parts)
+
+
+def _type_checking(node: ast.If) -> bool:
+    t = node.test
+    return (isinstance(t, ast.Name) and t.id == "TYPE_CHECKING") or (
+        isinstance(t, ast.Attribute) and t.attr == "TYPE_CHECKING"
+    )
+
+
+def _targets(node: ast.Import | ast.ImportFrom, known: set[str], here: str) -> set[str]:
+    """The project modules an import statement loads (a package's submodules named in a
+    ``from pkg import sub`` included)."""
+    if isinstance(node, ast.Import):
+        names = [a.name for a in node.names]
+    else:
+        base = node.module or ""
+        if node.level:
+            pkg = here.split(".")[: -node.level] if node.level else []
+            base = ".".join([*pkg, base] if base else pkg)
+        names = [base] + [f"{base}.{a.name}" for a in node.names]
+    out = set()
+    for n in names:
+        while n and n not in known:
+            n = n.rpartition(".")[0]
+        if n:
+            out.add(n)
+    return out
+
+
+def _walk(body: list[ast.stmt], inside: bool, found: list[tuple[ast.AST, bool]]) -> None:
+    for node in body:
+        if isinstance(node, ast.If) and _type_checking(node):
+            continue  # never executed
+        if isinstance(node, ast.Import | ast.ImportFrom):
+            found.append((node, inside))
+        nested = isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef | ast.Lambda)
+        for child in ast.iter_child_nodes(node):
+            if isinstance(child, ast.stmt):
+                _walk([child], inside or nested, found)
+            elif hasattr(child, "body") and isinstance(getattr(child, "body"), list):
+                _walk(child.body, inside or nested, found)  # type: ignore[attr-defined]
+
+
+def graph(root: Path = ROOT) -> dict[str, Module]:
+    """Every module of the project's packages and what it imports."""
+    paths = [p for pkg in PACKAGES for p in sorted((root / pkg).rglob("*.py"))]
+    mods = {_module_name(p, root): Module(_module_name(p, root), p) for p in paths}
+    known = set(mods)
+    for m in mods.values():
+        found: list[tuple[ast.AST, bool]] = []
+        _walk(ast.parse(m.path.read_text()).body, False, found)
+        for node, inside in found:
+            assert isinstance(node, ast.Import | ast.ImportFrom)
+            targets = _targets(node, known, m.name) - {m.name}
+            (m.inner if inside else m.top).update(targets)
+            if not inside:
+                libs = (
+                    {a.name.split(".")[0] for a in node.names}
+                    if isinstance(node, ast.Import)
+                    else {(node.module or "").split(".")[0]}
+                    if not node.level
+                    else set()
+                )
+                m.heavy_top |= libs & HEAVY
+    return mods
+
+
+def cycles(mods: dict[str, Module], with_inner: bool = True) -> list[list[str]]:
+    """The strongly connected components of more than one module (Tarjan), each sorted."""
+    edges = {n: (m.top | m.inner) if with_inner else set(m.top) for n, m in mods.items()}
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    on: set[str] = set()
+    out: list[list[str]] = []
+
+    def visit(v: str) -> None:
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        on.add(v)
+        for w in sorted(edges[v]):
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            comp = []
+            while True:
+                w = stack.pop()
+                on.discard(w)
+                comp.append(w)
+                if w == v:
+                    break
+            if len(comp) > 1:
+                out.append(sorted(comp))
+
+    for v in sorted(edges):
+        if v not in index:
+            visit(v)
+    return out
+
+
+def pulls_heavy(mods: dict[str, Module], name: str) -> bool:
+    """``name`` imports a heavy library at module level, itself or through the project
+    modules it imports at module level."""
+    seen, todo = set(), [name]
+    while todo:
+        n = todo.pop()
+        if n in seen:
+            continue
+        seen.add(n)
+        if mods[n].heavy_top:
+            return True
+        todo.extend(mods[n].top)
+    return False
+
+
+def reaches(mods: dict[str, Module], start: str, goal: str) -> bool:
+    """``start`` imports ``goal``, directly or through other modules (any import)."""
+    seen, todo = set(), [start]
+    while todo:
+        n = todo.pop()
+        if n == goal:
+            return True
+        if n not in seen:
+            seen.add(n)
+            todo.extend(mods[n].top | mods[n].inner)
+    return False
+
+
+def inner_imports_by_reason(mods: dict[str, Module]) -> dict[str, list[str]]:
+    """Each project import placed inside a function, by why it is there: ``circle`` (at
+    module level it would close an import circle: the rooms are wrong), ``heavy`` (the
+    module it loads pulls a heavy library), ``command`` (a command module loading a
+    command's implementation only when that command runs) or ``none``."""
+    out: dict[str, list[str]] = {"circle": [], "heavy": [], "command": [], "none": []}
+    for m in mods.values():
+        for t in sorted(m.inner):
+            if reaches(mods, t, m.name):
+                reason = "circle"
+            elif pulls_heavy(mods, t):
+                reason = "heavy"
+            elif _is_command(m.name) and _is_command(t):
+                reason = "command"
+            else:
+                reason = "none"
+            out[reason].append(f"{m.name} -> {t}")
+    return out
+
+
+def _is_command(name: str) -> bool:
+    parts = name.split(".")
+    return "commands" in parts or "cli" in parts or parts[-1].endswith("_cli")
+
+
+if __name__ == "__main__":
+    import sys
+
+    mods = graph(Path(sys.argv[1]).resolve() if len(sys.argv) > 1 else ROOT)
+    print("modules:", len(mods))
+    print("circles (all imports):", len(cycles(mods)))
+    for c in cycles(mods):
+        print("  ", " ".join(c))
+    print("circles (module level):", len(cycles(mods, with_inner=False)))
+    for reason, items in inner_imports_by_reason(mods).items():
+        print(f"inner imports, {reason}: {len(items)}")
+        for i in items:
+            print("   ", i)
