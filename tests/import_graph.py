@@ -71,7 +71,7 @@ def _walk(body: list[ast.stmt], inside: bool, found: list[tuple[ast.AST, bool]])
         for child in ast.iter_child_nodes(node):
             if isinstance(child, ast.stmt):
                 _walk([child], inside or nested, found)
-            elif hasattr(child, "body") and isinstance(getattr(child, "body"), list):
+            elif hasattr(child, "body") and isinstance(child.body, list):
                 _walk(child.body, inside or nested, found)  # type: ignore[attr-defined]
 
 

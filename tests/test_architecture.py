@@ -151,3 +151,20 @@ def test_agents_sub_packages_import_one_way() -> None:
             if tp[0] == "agents" and len(tp) > 1 and AGENTS_ORDER.index(tp[1]) > rank:
                 bad.append(f"{name} -> {t}")
     assert not bad, f"agents imports against its order {AGENTS_ORDER}: {bad}"
+
+
+MAX_POSITIONAL = 6
+
+
+def test_no_function_takes_more_than_six_positional_parameters() -> None:
+    """Beyond six, callers pass settings by position and mix them up: take a typed config
+    or make the rest keyword-only."""
+    long = []
+    for path in sorted(p for pkg in PACKAGES for p in (ROOT / pkg).rglob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef):
+                args = [a.arg for a in (*node.args.posonlyargs, *node.args.args)]
+                n = len([a for a in args if a not in ("self", "cls")])
+                if n > MAX_POSITIONAL:
+                    long.append(f"{path.relative_to(ROOT)}:{node.name} ({n})")
+    assert not long, f"functions with more than {MAX_POSITIONAL} positional parameters: {long}"

@@ -41,6 +41,7 @@ def simulate_batches(
     v_start: float,
     v_stop: float,
     rng: np.random.Generator,
+    *,
     batch_events: int = BATCH_EVENTS,
     max_events: int = 10_000_000,
 ) -> int:

@@ -138,7 +138,7 @@ def compare_and_report(
     from agents.commands.compare import run_compare  # SB3 (the agents' learning curve)
 
     result = run_compare(
-        config, atlas, out, seed, _bar(quiet), hyperparams=hyperparams, runner=runner,
+        config, atlas, out, seed, progress=_bar(quiet), hyperparams=hyperparams, runner=runner,
         resume=resume,
     )  # fmt: skip
     summary = result.to_dict()

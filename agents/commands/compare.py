@@ -39,6 +39,7 @@ def run_compare(
     atlas: Atlas,
     out_dir: str | Path,
     seed: int = 0,
+    *,
     progress: Progress | None = None,
     fitted: Mapping[str, Predictor] | None = None,
     hyperparams: Mapping[str, dict[str, Any]] | None = None,

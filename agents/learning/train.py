@@ -130,7 +130,7 @@ def train_agent(
     out, env = Path(out_dir), env or EnvConfig()
     out.mkdir(parents=True, exist_ok=True)
     venv = _vec_env(predictor, atlas, env, settings, seed, float(algo_kwargs.get("gamma", 0.99)))
-    model = _model(algo, venv, seed, settings, algo_kwargs, out, verbose)
+    model = _model(algo, venv, seed, settings, algo_kwargs=algo_kwargs, out=out, verbose=verbose)
     every = max(timesteps // (settings.n_envs * max(n_evals, 1)), 1)
     curve = _curve(curve_pads, predictor, env, every)
     t0 = time.perf_counter()
@@ -189,6 +189,7 @@ def _model(
     venv: VecNormalize,
     seed: int,
     settings: VecSettings,
+    *,
     algo_kwargs: dict[str, Any],
     out: Path,
     verbose: int,

@@ -165,23 +165,24 @@ def run_episodes(
         ep_events.append(n)
     return _report(
         name,
-        tuple(int(s) for s in seeds),
-        cost,
-        tuple(per_episode),
         retired,
-        tuple(ep_fail),
-        tuple(ep_plan),
-        tuple(ep_events),
-        time.perf_counter() - t0,
+        seeds=tuple(int(s) for s in seeds),
+        cost=cost,
+        per_episode=tuple(per_episode),
+        ep_fail=tuple(ep_fail),
+        ep_plan=tuple(ep_plan),
+        ep_events=tuple(ep_events),
+        seconds=time.perf_counter() - t0,
     )
 
 
 def _report(
     name: str,
+    retired: Sequence[RetiredPad],
+    *,
     seeds: tuple[int, ...],
     cost: float,
     per_episode: tuple[float, ...],
-    retired: Sequence[RetiredPad],
     ep_fail: tuple[int, ...],
     ep_plan: tuple[int, ...],
     ep_events: tuple[int, ...],
@@ -220,14 +221,14 @@ def merge_reports(reports: Sequence[CostReport]) -> CostReport:
     retired = [pad for r in reports for pad in r.retired]
     return _report(
         reports[0].name,
-        tuple(s for r in reports for s in r.seeds),
-        sum(r.cost for r in reports),
-        tuple(x for r in reports for x in r.episode_cost_per_1000_events),
         retired,
-        tuple(x for r in reports for x in r.episode_failures),
-        tuple(x for r in reports for x in r.episode_planned),
-        tuple(x for r in reports for x in r.episode_events),
-        sum(r.seconds for r in reports),
+        seeds=tuple(s for r in reports for s in r.seeds),
+        cost=sum(r.cost for r in reports),
+        per_episode=tuple(x for r in reports for x in r.episode_cost_per_1000_events),
+        ep_fail=tuple(x for r in reports for x in r.episode_failures),
+        ep_plan=tuple(x for r in reports for x in r.episode_planned),
+        ep_events=tuple(x for r in reports for x in r.episode_events),
+        seconds=sum(r.seconds for r in reports),
     )
 
 

@@ -67,7 +67,9 @@ def censor_log(
     out[FAILED] = False
     measured = np.full(len(log), np.nan)
     if volume_noise is not None:
-        measured = _measure(log, codes, event, last, rng, volume_noise, inspections)
+        measured = _measure(
+            log, codes, event, last, rng=rng, volume_noise=volume_noise, inspections=inspections
+        )
     out[MEASURED_VOLUME] = measured[keep]
     return out.reset_index(drop=True)
 
@@ -77,6 +79,7 @@ def _measure(
     codes: NDArray[np.intp],
     event: NDArray[np.int64],
     last: NDArray[np.float64],
+    *,
     rng: np.random.Generator,
     volume_noise: float,
     inspections: int,

@@ -106,6 +106,7 @@ def simulate_events(
     slope_rad: ArrayLike,
     volume_frac: ArrayLike,
     model: BrakeModel | None = None,
+    *,
     start_temp_c: ArrayLike | None = None,
     modifier: EventModifier | None = None,
 ) -> EventResponse:

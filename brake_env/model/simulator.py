@@ -247,8 +247,8 @@ class Runs:
         sp, m, th = conditions_from_uniform(atlas, u)
         fields = RESPONSE_FIELDS if response else (WEAR,)
         resp, dv, cum = layer_block(
-            atlas, j, sp, m, th, self.ks[todo], self.start[todo], self.acc[todo],
-            self.interpolate, fields,
+            atlas, j, sp, m, th, k=self.ks[todo], start=self.start[todo], acc=self.acc[todo],
+            interpolate=self.interpolate, fields=fields,
         )  # fmt: skip
         after = self.start[todo, None] - cum
         # Only a run's own block counts: events past it belong to its next block.
@@ -347,6 +347,7 @@ def layer_block(
     sp: F64,
     m: F64,
     th: F64,
+    *,
     k: F64,
     start: F64,
     acc: F64,
