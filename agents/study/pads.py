@@ -49,8 +49,11 @@ def regime_weights(regime: PadRegime) -> dict[Label, float]:
 class PadDraws:
     """Which pads: K, wear-regime label and seed of each, in the order they are studied.
 
-    A pad ``(K, label, entropy)`` is BrakeWear-v0's pad of the same K, label and
-    ``SeedSequence(entropy)``: the same events, bit for bit.
+    A pad ``(K, label, entropy)`` has BrakeWear-v0's pad of the same K, label and
+    ``SeedSequence(entropy)``'s operating conditions, true responses and life, bit for bit.
+    Its sensor noise is drawn from the same seed through one stream for all channels
+    (:func:`brake_env.data.datasets.measure`), not the env's per-channel streams, so the
+    logged readings differ from the env's pad by independent noise of the same law.
 
     Attributes:
         wear_coeff: Archard coefficient K of each pad [-].
@@ -287,8 +290,8 @@ def _simulate_group(
 ) -> tuple[EventBatch, NDArray[np.intp]]:
     """The whole lives of pads ``idx``, concatenated, and the slot (0, 1, ...) of each row.
 
-    Exactly :func:`brake_env.env.pads.simulate_pad` (the env's pad of that K and seed),
-    with the runs simulated together."""
+    The conditions and lives of :func:`brake_env.env.pads.simulate_pad` (the env's pad of
+    that K and seed), with the runs simulated together; the noise as in :class:`PadDraws`."""
     seeds = [np.random.SeedSequence(int(draws.entropy[i])).spawn(2) for i in idx]
     trajectories = simulate_runs(
         atlas, draws.wear_coeff[idx], [s[0] for s in seeds], None, config.interpolate_layers

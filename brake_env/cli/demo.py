@@ -10,8 +10,14 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from brake_env.cli.common import add_common_args, plugins
-from brake_env.cli.simulate import add_simulation_args, cmd_atlas, cmd_simulate
+from brake_env.cli.common import add_common_args, load_atlas, plugins
+from brake_env.cli.simulate import (
+    SimulateJob,
+    add_simulation_args,
+    dataset_spec,
+    write_atlas,
+    write_datasets,
+)
 from brake_env.output import write_text
 
 
@@ -43,10 +49,12 @@ def cmd_demo(args: argparse.Namespace) -> dict[str, Any]:
     stages = plugins("brakewear.demo")
     n = 2 + len(stages)
     print(f"== 1/{n} atlas and calibration")
-    atlas_info = cmd_atlas(argparse.Namespace(**{**vars(args), "out": str(out / "atlas")}))
+    atlas = load_atlas(args)
+    other = "cold-start" if args.preset == "hot-duty" else "hot-duty"
+    atlas_info = write_atlas(atlas, args.preset, {other: load_atlas(args, other)}, out / "atlas")
     print(f"\n== 2/{n} run-to-failure datasets")
-    data_args = {**vars(args), "out": str(out / "data"), "atlas": None}
-    summary = cmd_simulate(argparse.Namespace(**data_args))
+    job = SimulateJob(dataset_spec(args), args.seed, args.format, out / "data", args.quiet)
+    summary = write_datasets(atlas, job)
     ctx = DemoContext(args, out, out / "atlas" / "atlas.npz", out / "data")
     sections = []
     for i, ep in enumerate(stages, start=3):

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import time
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -18,6 +19,7 @@ from brake_env.cli.common import (
 )
 from brake_env.data.datasets import SPLITS, DatasetSpec, make_dataset, write_dataset
 from brake_env.data.summary import atlas_summary, dataset_summary
+from brake_env.model.atlas import Atlas
 from brake_env.output import table, write_json
 
 FORMATS = ("parquet", "csv")
@@ -56,18 +58,23 @@ def add_simulation_args(sp: argparse.ArgumentParser, fmt_default: str) -> None:
 
 
 def cmd_atlas(args: argparse.Namespace) -> dict[str, Any]:
+    other = "cold-start" if args.preset == "hot-duty" else "hot-duty"
+    return write_atlas(
+        load_atlas(args), args.preset, {other: load_atlas(args, other)}, Path(args.out)
+    )
+
+
+def write_atlas(atlas: Atlas, preset: str, others: dict[str, Atlas], out: Path) -> dict[str, Any]:
+    """``atlas.npz``, ``atlas.json`` and the calibration figure, which sets the ``others``
+    presets beside this one (README "The model"'s contrast); the summary printed."""
     from brake_env.data.plots import plot_calibration
 
-    out = Path(args.out)
-    atlas = load_atlas(args)
     atlas.save(out / "atlas.npz")
     info = atlas_summary(atlas)
     info["build_seconds"] = atlas.build_seconds
-    info["preset"] = args.preset
+    info["preset"] = preset
     write_json(info, out / "atlas.json")
-    other = "cold-start" if args.preset == "hot-duty" else "hot-duty"
-    # The calibration figure sets the other preset beside this one (README "The model"'s contrast).
-    plot_calibration(atlas, out / "calibration.png", compare={other: load_atlas(args, other)})
+    plot_calibration(atlas, out / "calibration.png", compare=others)
     print(
         table(
             [
@@ -81,7 +88,7 @@ def cmd_atlas(args: argparse.Namespace) -> dict[str, Any]:
                     "build s",
                 ],
                 [
-                    args.preset,
+                    preset,
                     str(atlas.n_layers),
                     f"{atlas.failure_volume:.2%} ({atlas.failure_mode})",
                     f"{info['wear_per_event_ratio_end_fresh']:.3f}",
@@ -112,20 +119,36 @@ def dataset_spec(args: argparse.Namespace) -> DatasetSpec:
 
 
 def cmd_simulate(args: argparse.Namespace) -> dict[str, Any]:
+    job = SimulateJob(dataset_spec(args), args.seed, args.format, Path(args.out), args.quiet)
+    return write_datasets(load_atlas(args), job)
+
+
+@dataclass(frozen=True)
+class SimulateJob:
+    """What ``brakewear simulate`` writes: the datasets of ``spec`` from ``seed``, as event
+    logs in ``formats`` under ``out``."""
+
+    spec: DatasetSpec
+    seed: int
+    formats: tuple[str, ...]
+    out: Path
+    quiet: bool = False
+
+
+def write_datasets(atlas: Atlas, job: SimulateJob) -> dict[str, Any]:
+    """Simulate and write the datasets, ``summary.json`` and figures; the summary printed."""
     from brake_env.data.plots import plot_trace, plot_volume_trajectories
 
-    out = Path(args.out)
-    atlas = load_atlas(args)
-    spec = dataset_spec(args)
-    with tqdm(total=atlas.n_layers, desc="simulate", unit="layer", disable=args.quiet) as bar:
-        ds = make_dataset(atlas, spec, args.seed, progress=bar.update)
+    out = job.out
+    with tqdm(total=atlas.n_layers, desc="simulate", unit="layer", disable=job.quiet) as bar:
+        ds = make_dataset(atlas, job.spec, job.seed, progress=bar.update)
     t0 = time.perf_counter()
-    n_files = len(args.format) * len(SPLITS)
-    with tqdm(total=n_files, desc="write logs", unit="file", disable=args.quiet) as bar:
-        write_dataset(ds, out, args.format, progress=lambda _: bar.update())
-    summary = dataset_summary(ds, atlas, args.seed)
+    n_files = len(job.formats) * len(SPLITS)
+    with tqdm(total=n_files, desc="write logs", unit="file", disable=job.quiet) as bar:
+        write_dataset(ds, out, job.formats, progress=lambda _: bar.update())
+    summary = dataset_summary(ds, atlas, job.seed)
     summary["timing_s"]["write"] = time.perf_counter() - t0
-    summary["files"] = sorted(f"{s}.{f}" for s in SPLITS for f in args.format)
+    summary["files"] = sorted(f"{s}.{f}" for s in SPLITS for f in job.formats)
     write_json(summary, out / "summary.json")
     if ds.runs:
         plot_volume_trajectories(ds.runs, out / "figures" / "volume_trajectories.png")

@@ -59,7 +59,9 @@ def _tiny_model(algo: str, atlas: Atlas) -> tuple[Any, Any]:
     from stable_baselines3 import DQN, PPO
     from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
 
-    venv = VecNormalize(DummyVecEnv([lambda: agent_env(Oracle(), atlas, FAST)] * 2))
+    venv = VecNormalize(
+        DummyVecEnv([lambda: agent_env(Oracle(), atlas, EnvConfig.from_kwargs(**FAST))] * 2)
+    )
     venv.seed(0)
     kw: dict[str, Any] = {"seed": 0, "device": "cpu", "policy_kwargs": {"net_arch": [16]}}
     model: PPO | DQN
@@ -73,7 +75,7 @@ def _tiny_model(algo: str, atlas: Atlas) -> tuple[Any, Any]:
 
 def _observations(atlas: Atlas, n: int = 200) -> np.ndarray:
     """Observations the agent meets (a rollout) and far-off ones (noise), normalised."""
-    env = agent_env(Oracle(), atlas, FAST)
+    env = agent_env(Oracle(), atlas, EnvConfig.from_kwargs(**FAST))
     obs, _ = env.reset(seed=1)
     seen = []
     for i in range(n // 2):
