@@ -72,6 +72,13 @@ def test_wheel_installs_and_trains_outside_the_source_tree(tmp_path: Path) -> No
     out = work / "out"
     assert (out / "model.zip").is_file() and (out / "evaluation.json").is_file()
     # The hyperparameters came from the installed package's agents/learning/hyperparams/none.toml.
-    with open(ROOT / "agents" / "hyperparams" / "none.toml", "rb") as f:
+    with open(ROOT / "agents" / "learning" / "hyperparams" / "none.toml", "rb") as f:
         shipped = tomllib.load(f)["ppo"]
     assert json.loads((out / "train.json").read_text())["hyperparams"] == shipped
+    # A pip user finds RL Zoo's --conf-file through the command, inside the installed package.
+    zoo = Path(_run(venv / "bin" / "brakewear", "hyperparams", "--zoo", cwd=work, env=env).strip())
+    assert (
+        zoo.is_relative_to(site)
+        and zoo.read_text()
+        == (ROOT / "agents" / "learning" / "hyperparams" / "rl_zoo3" / "ppo.yml").read_text()
+    )

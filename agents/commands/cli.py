@@ -15,7 +15,7 @@ from tqdm import tqdm
 
 from agents.commands.report import cost_rows, markdown_section, print_report, write_figures
 from agents.commands.units import AgentJob
-from agents.learning.hyperparameters import ALGOS, load_hyperparams
+from agents.learning.hyperparameters import ALGOS, hyperparams_file, load_hyperparams, rl_zoo_file
 from agents.study.config import StudyConfig
 from brake_env.cli.common import (
     add_common_args,
@@ -179,10 +179,30 @@ def demo_compare(ctx: DemoContext) -> tuple[dict[str, Any], str]:
     return summary, markdown_section(summary, "compare")
 
 
+# ---------------------------------------------------------------------- hyperparams
+def cmd_hyperparams(args: argparse.Namespace) -> dict[str, Any]:
+    """Print where the installed package keeps a hyperparameter file (a pip user has no
+    repository to point ``--conf-file`` or ``--hyperparams`` at)."""
+    path = rl_zoo_file(args.algo) if args.zoo else hyperparams_file(args.predictor)
+    if not path.exists():
+        raise FileNotFoundError(f"no hyperparameter file for predictor {args.predictor!r}")
+    print(path)
+    return {"path": str(path)}
+
+
 # ---------------------------------------------------------------------- parser
 def register(sub: argparse._SubParsersAction[Any]) -> None:
-    """Add ``train`` and ``compare`` to the ``brakewear`` parser."""
+    """Add ``train``, ``compare`` and ``hyperparams`` to the ``brakewear`` parser."""
     fmt = argparse.ArgumentDefaultsHelpFormatter
+    h = sub.add_parser(
+        "hyperparams",
+        formatter_class=fmt,
+        help="print the path of a shipped hyperparameter file (--zoo: RL Zoo's --conf-file)",
+    )
+    h.add_argument("--zoo", action="store_true", help="the RL Zoo file of --algo")
+    h.add_argument("--algo", choices=ALGOS, default="ppo")
+    h.add_argument("--predictor", choices=predictor_names(), default="twin")
+    h.set_defaults(func=cmd_hyperparams)
     t = sub.add_parser(
         "train",
         formatter_class=fmt,

@@ -1,5 +1,6 @@
-"""The agents' hyperparameters: ``agents/hyperparams/<predictor>.toml``, RL Zoo style (one
-file per predictor, one table per algorithm).
+"""The agents' hyperparameters: ``agents/learning/hyperparams/<predictor>.toml``, RL Zoo
+style (one file per predictor, one table per algorithm), and the RL Zoo file
+(``hyperparams/rl_zoo3/<algo>.yml``) for training with ``rl_zoo3.train`` itself.
 
 Light on purpose (no torch, no SB3): the command line reads :data:`ALGOS` at parse time.
 A table mixes the algorithm's keyword arguments with the keys of :class:`VecSettings`,
@@ -18,10 +19,25 @@ ALGOS = ("ppo", "dqn")
 HYPERPARAMS_DIR = Path(__file__).parent / "hyperparams"
 
 
+def hyperparams_file(predictor: str) -> Path:
+    """Where the installed package keeps ``predictor``'s hyperparameter file."""
+    return HYPERPARAMS_DIR / f"{predictor}.toml"
+
+
+def rl_zoo_file(algo: str = "ppo") -> Path:
+    """Where the installed package keeps its RL Zoo hyperparameter file for ``algo``
+    (``--conf-file`` of ``python -m rl_zoo3.train``)."""
+    path = HYPERPARAMS_DIR / "rl_zoo3" / f"{algo}.yml"
+    if not path.exists():
+        have = sorted(p.stem for p in path.parent.glob("*.yml"))
+        raise FileNotFoundError(f"no RL Zoo file for {algo!r}; the package has {have}")
+    return path
+
+
 def load_hyperparams(predictor: str, algo: str, path: str | Path | None = None) -> dict[str, Any]:
-    """The ``[algo]`` table of ``path`` (default ``agents/hyperparams/<predictor>.toml``)."""
+    """The ``[algo]`` table of ``path`` (default :func:`hyperparams_file`)."""
     check_algo(algo)
-    file = Path(path) if path else HYPERPARAMS_DIR / f"{predictor}.toml"
+    file = Path(path) if path else hyperparams_file(predictor)
     if not file.exists():
         raise FileNotFoundError(f"hyperparameter file {file} does not exist")
     with open(file, "rb") as f:
