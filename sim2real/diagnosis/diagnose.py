@@ -84,8 +84,7 @@ def diagnose(
         seed: Seeds the run split, the event subsamples and the simulated readings.
         progress: Called with a short text per fitted model.
         rul: Optional callback for the twin's RUL error without and with the winning
-            effect (:data:`sim2real.diagnosis.quantify.RulScorer`, e.g.
-            ``sim2real.diagnosis.rul.rul_scorer``).
+            effect (:data:`~.quantify.RulScorer`, e.g. :func:`~.rul.rul_scorer`).
     """
     cfg = config or DiagnosisConfig()
     check_log(log, cfg, with_rul=rul is not None)  # fail in seconds, not after the replay
