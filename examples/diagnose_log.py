@@ -15,9 +15,9 @@ from typing import Any
 from brake_env.data.datasets import DatasetSpec
 from brake_env.model.atlas import AtlasSpec, cached_atlas
 from brake_env.model.regime import WearRegime
-from sim2real.diagnose import diagnose
-from sim2real.library import parse_effect, registry
-from sim2real.truth import TruthSpec, simulate_truth
+from sim2real.diagnosis.diagnose import diagnose
+from sim2real.effects.library import parse_effect, registry
+from sim2real.effects.truth import TruthSpec, simulate_truth
 
 
 def main(

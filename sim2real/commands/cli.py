@@ -1,0 +1,236 @@
+"""``brakewear`` subcommands of the sim-to-real package (registered as a plug-in):
+
+- ``diagnose --real FILE [--model ATLAS] --out DIR``: localise, attribute, quantify;
+- ``validate-gap --out DIR --seed S [--workers N | --ray [ADDRESS]]``: withheld-effect
+  validation, confusion matrix; each case a unit of the runner (:mod:`sim2real.commands.units`),
+  saved in ``DIR/units/`` as it finishes, so that a rerun of the same command resumes;
+- ``simulate --effect``: added to ``brakewear simulate`` (:mod:`sim2real.commands.simulate`).
+
+Each command turns its arguments into typed settings (:class:`DiagnosisConfig`,
+:class:`ValidationSpec`); the figures (matplotlib) are imported only when drawn.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+from tqdm import tqdm
+
+from brake_env.cli.common import (
+    add_common_args,
+    add_runner_args,
+    int_at_least,
+    load_atlas,
+    make_runner,
+)
+from brake_env.data.schema import read_event_log
+from brake_env.model.atlas import Atlas
+from brake_env.output import write_json, write_text
+from sim2real.commands.simulate import add_effect_args
+from sim2real.commands.units import case_key, open_store, validate_gap
+from sim2real.diagnosis.config import DiagnosisConfig
+from sim2real.diagnosis.diagnose import diagnose
+from sim2real.diagnosis.preconditions import check_log
+from sim2real.diagnosis.rul import rul_scorer
+from sim2real.effects.library import describe_library, registry
+from sim2real.validation.plots import validation_figures
+from sim2real.validation.report import validation_text, write_outputs
+from sim2real.validation.validate import ValidationSpec, selected_cases
+
+_FMT = argparse.ArgumentDefaultsHelpFormatter
+
+
+# ---------------------------------------------------------------------- diagnose
+def _config(args: argparse.Namespace) -> DiagnosisConfig:
+    return DiagnosisConfig(calibration_fraction=args.calibration_fraction)
+
+
+def cmd_diagnose(args: argparse.Namespace) -> dict[str, Any]:
+    out = Path(args.out)
+    log = read_event_log(args.real)
+    # Before the long work: a log it cannot use fails in seconds.
+    checked = check_log(log, _config(args), with_rul=not args.no_rul)
+    for w in checked.warnings:
+        print(f"diagnose: warning: {w}", file=sys.stderr)
+
+    atlas = Atlas.load(args.model) if args.model else load_atlas(args)
+    cands = None
+    if args.candidates:
+        reg = registry()
+        bad = [c for c in args.candidates if c not in reg]
+        if bad:
+            raise ValueError(f"unknown candidate(s) {bad}; valid are {sorted(reg)}")
+        cands = [reg[c] for c in args.candidates]
+    t0 = time.perf_counter()
+    with tqdm(desc="diagnose", unit="model", disable=args.quiet, delay=0.5) as bar:
+        res = diagnose(
+            log,
+            atlas,
+            cands,
+            _config(args),
+            args.seed,
+            progress=lambda _: bar.update(),
+            rul=None if args.no_rul else rul_scorer(atlas),
+        )
+    seconds = time.perf_counter() - t0
+    extra = {"seconds": seconds, "real": str(args.real), "library": describe_library()}
+    text = write_outputs(res, out, {**extra, "log_checks": checked.summary()})
+    print(text)
+    print(f"\nwrote {out}/diagnosis.json, report.md, figures/ ({seconds:.1f} s)")
+    return res.summary
+
+
+# ---------------------------------------------------------------------- validate-gap
+def cmd_validate_gap(args: argparse.Namespace) -> dict[str, Any]:
+    """``brakewear validate-gap``: every case a unit of the runner, saved in ``OUT/units/``
+    as it finishes; the same command again resumes from the saved cases."""
+    _jobs_alias(args)
+    out = Path(args.out)
+    atlas = load_atlas(args)
+    spec = _validation_spec(args)
+    # Before any work (and before Ray starts): a store of other settings is refused.
+    store = open_store(out / "units", atlas, spec, args.seed, args.only)
+    todo = selected_cases(spec, args.seed, args.only)
+    done = sum(case_key(c) in store for c in todo)
+    if done:
+        print(f"resuming: {done} of {len(todo)} cases already done")
+    t0 = time.perf_counter()
+    with (
+        make_runner(args) as runner,
+        tqdm(desc="validate", unit="case", total=len(todo), disable=args.quiet) as bar,
+    ):
+        r = validate_gap(
+            atlas,
+            spec,
+            args.seed,
+            progress=lambda _: bar.update(),
+            case_filter=args.only,
+            runner=runner,
+            store=store,
+        )
+    r["seconds"] = time.perf_counter() - t0
+    r["settings"] = {
+        "seed": args.seed,
+        **{k: getattr(spec, k) for k in _SPEC_SETTINGS},
+        "only": args.only,
+        "workers": args.workers,
+        "ray": args.ray,
+    }
+    _write_validation(r, out, args.seed)
+    return r
+
+
+_SPEC_SETTINGS = (
+    "seeds_mid",
+    "low_magnitude",
+    "n_controls",
+    "n_out_of_library",
+    "n_runs",
+    "k_mean",
+    "route_block_events",
+)
+
+
+def _jobs_alias(args: argparse.Namespace) -> None:
+    """``--jobs N``, deprecated: ``--workers N`` (``--jobs 1`` was and is: in this process)."""
+    if args.jobs is None:
+        return
+    workers = args.jobs if args.jobs > 1 else 0
+    if args.workers not in (0, workers):
+        raise ValueError(f"--jobs {args.jobs} and --workers {args.workers}: give --workers only")
+    print(f"note: --jobs is deprecated, use --workers {workers}", file=sys.stderr)
+    args.workers = workers
+
+
+def _validation_spec(args: argparse.Namespace) -> ValidationSpec:
+    return ValidationSpec(
+        seeds_mid=args.seeds,
+        low_magnitude=args.low,
+        n_out_of_library=args.out_of_library,
+        n_controls=args.controls,
+        n_runs=args.runs,
+        with_rul=not args.no_rul,
+        route_block_events=args.route_block_events,
+    )
+
+
+def _write_validation(r: dict[str, Any], out: Path, seed: int) -> None:
+    write_json(r, out / "validation.json")
+    text = validation_text(r)
+    figs = validation_figures(r, out)
+    write_text(
+        f"# Withheld-effect validation (seed {seed})\n\n```\n{text}\n```\n\n"
+        + "\n".join(f"![{p.stem}]({p.name})" for p in figs)
+        + "\n",
+        out / "validation.md",
+    )
+    print(text)
+    print(
+        f"\nwrote {out}/validation.json, validation.md, confusion.png, shrink.png,"
+        f" units/ ({r['seconds']:.0f} s)"
+    )
+
+
+# ---------------------------------------------------------------------- parser
+def register(sub: argparse._SubParsersAction[Any]) -> None:
+    """Add this package's subcommands to the ``brakewear`` parser."""
+    sim = sub.choices.get("simulate")
+    if sim is not None:
+        add_effect_args(sim)
+    _add_diagnose(sub)
+    _add_validate_gap(sub)
+
+
+def _add_diagnose(sub: argparse._SubParsersAction[Any]) -> None:
+    d = sub.add_parser(
+        "diagnose", formatter_class=_FMT, help="diagnose the sim-to-real gap of an event log"
+    )
+    add_common_args(d, "out/diagnose")
+    d.add_argument("--real", required=True, help="event log (.parquet or .csv) to diagnose")
+    d.add_argument("--model", default=None, help="the nominal model's atlas .npz")
+    d.add_argument("--candidates", nargs="+", default=None, help="candidate effect names")
+    d.add_argument(
+        "--calibration-fraction",
+        type=float,
+        default=0.5,
+        help="share of runs used to fit candidate parameters",
+    )
+    d.add_argument("--no-rul", action="store_true", help="skip the twin's RUL error")
+    d.set_defaults(func=cmd_diagnose)
+
+
+def _add_validate_gap(sub: argparse._SubParsersAction[Any]) -> None:
+    v = sub.add_parser(
+        "validate-gap",
+        formatter_class=_FMT,
+        help="withheld-effect validation of the diagnosis (confusion matrix)",
+    )
+    add_common_args(v, "out/validate-gap")
+    v.add_argument("--seeds", type=int, default=3, help="seeds per effect at mid magnitude")
+    v.add_argument("--controls", type=int, default=4, help="no-effect control cases")
+    v.add_argument(
+        "--out-of-library",
+        type=int,
+        default=2,
+        help="cases of the out-of-library effect (pad glazing)",
+    )
+    v.add_argument("--runs", type=int, default=8, help="truth runs per case")
+    v.add_argument(
+        "--low", action="store_true", help="also each effect once at half its mid magnitude"
+    )
+    v.add_argument("--no-rul", action="store_true", help="skip the twin's RUL error")
+    v.add_argument("--only", nargs="+", default=None, help="run only cases containing these")
+    v.add_argument(
+        "--route-block-events",
+        type=int_at_least(0),
+        default=0,
+        help="0: independent operating conditions; N: haul-road and pit blocks of N events",
+    )
+    add_runner_args(v)
+    # Deprecated alias of --workers, kept for old scripts (README's examples used it).
+    v.add_argument("--jobs", type=int_at_least(1), default=None, help=argparse.SUPPRESS)
+    v.set_defaults(func=cmd_validate_gap)

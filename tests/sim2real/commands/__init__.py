@@ -1,0 +1,1 @@
+"""Tests of sim2real.commands: the CLI and validate-gap's units."""
