@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import argparse
+import importlib
 import sys
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from typing import Any
 
 from brake_env.cli import demo, simulate
 from brake_env.cli.common import plugins
@@ -28,10 +30,20 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
+def command(func: Callable[[argparse.Namespace], Any] | str) -> Callable[..., Any]:
+    """A subcommand's function: given, or named ``"module:function"`` by a parser that
+    keeps its implementation (and what that imports) out of ``brakewear --help``."""
+    if not isinstance(func, str):
+        return func
+    module, _, name = func.partition(":")
+    return getattr(importlib.import_module(module), name)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
+    run = command(args.func)
     try:
-        args.func(args)
+        run(args)
     except (ValueError, FileNotFoundError) as e:
         print(f"brakewear {args.command}: error: {e}", file=sys.stderr)
         return 2

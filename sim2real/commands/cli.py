@@ -1,4 +1,6 @@
-"""``brakewear`` subcommands of the sim-to-real package (registered as a plug-in):
+"""What the sim-to-real package's ``brakewear`` subcommands run (their parser is
+:mod:`sim2real.commands.parser`, which names these functions, so this module and the
+diagnosis it imports load only when a command runs):
 
 - ``diagnose --real FILE [--model ATLAS] --out DIR``: localise, attribute, quantify;
 - ``validate-gap --out DIR --seed S [--workers N | --ray [ADDRESS]]``: withheld-effect
@@ -21,16 +23,12 @@ from typing import Any
 from tqdm import tqdm
 
 from brake_env.cli.common import (
-    add_common_args,
-    add_runner_args,
-    int_at_least,
     load_atlas,
     make_runner,
 )
 from brake_env.data.schema import read_event_log
 from brake_env.model.atlas import Atlas
 from brake_env.output import write_json, write_text
-from sim2real.commands.simulate import add_effect_args
 from sim2real.commands.units import case_key, open_store, validate_gap
 from sim2real.diagnosis.config import DiagnosisConfig
 from sim2real.diagnosis.diagnose import diagnose
@@ -40,8 +38,6 @@ from sim2real.effects.library import describe_library, registry
 from sim2real.validation.plots import validation_figures
 from sim2real.validation.report import validation_text, write_outputs
 from sim2real.validation.validate import ValidationSpec, selected_cases
-
-_FMT = argparse.ArgumentDefaultsHelpFormatter
 
 
 # ---------------------------------------------------------------------- diagnose
@@ -176,61 +172,3 @@ def _write_validation(r: dict[str, Any], out: Path, seed: int) -> None:
 
 
 # ---------------------------------------------------------------------- parser
-def register(sub: argparse._SubParsersAction[Any]) -> None:
-    """Add this package's subcommands to the ``brakewear`` parser."""
-    sim = sub.choices.get("simulate")
-    if sim is not None:
-        add_effect_args(sim)
-    _add_diagnose(sub)
-    _add_validate_gap(sub)
-
-
-def _add_diagnose(sub: argparse._SubParsersAction[Any]) -> None:
-    d = sub.add_parser(
-        "diagnose", formatter_class=_FMT, help="diagnose the sim-to-real gap of an event log"
-    )
-    add_common_args(d, "out/diagnose")
-    d.add_argument("--real", required=True, help="event log (.parquet or .csv) to diagnose")
-    d.add_argument("--model", default=None, help="the nominal model's atlas .npz")
-    d.add_argument("--candidates", nargs="+", default=None, help="candidate effect names")
-    d.add_argument(
-        "--calibration-fraction",
-        type=float,
-        default=0.5,
-        help="share of runs used to fit candidate parameters",
-    )
-    d.add_argument("--no-rul", action="store_true", help="skip the twin's RUL error")
-    d.set_defaults(func=cmd_diagnose)
-
-
-def _add_validate_gap(sub: argparse._SubParsersAction[Any]) -> None:
-    v = sub.add_parser(
-        "validate-gap",
-        formatter_class=_FMT,
-        help="withheld-effect validation of the diagnosis (confusion matrix)",
-    )
-    add_common_args(v, "out/validate-gap")
-    v.add_argument("--seeds", type=int, default=3, help="seeds per effect at mid magnitude")
-    v.add_argument("--controls", type=int, default=4, help="no-effect control cases")
-    v.add_argument(
-        "--out-of-library",
-        type=int,
-        default=2,
-        help="cases of the out-of-library effect (pad glazing)",
-    )
-    v.add_argument("--runs", type=int, default=8, help="truth runs per case")
-    v.add_argument(
-        "--low", action="store_true", help="also each effect once at half its mid magnitude"
-    )
-    v.add_argument("--no-rul", action="store_true", help="skip the twin's RUL error")
-    v.add_argument("--only", nargs="+", default=None, help="run only cases containing these")
-    v.add_argument(
-        "--route-block-events",
-        type=int_at_least(0),
-        default=0,
-        help="0: independent operating conditions; N: haul-road and pit blocks of N events",
-    )
-    add_runner_args(v)
-    # Deprecated alias of --workers, kept for old scripts (README's examples used it).
-    v.add_argument("--jobs", type=int_at_least(1), default=None, help=argparse.SUPPRESS)
-    v.set_defaults(func=cmd_validate_gap)

@@ -66,3 +66,27 @@ def test_bad_arguments_are_named(tmp_path, capsys) -> None:
         main(["simulate", "--out", str(tmp_path), "--n-train", "-2"])
     assert main(["simulate", "--out", str(tmp_path), "--k-std", "-1", "--quiet"]) == 2
     assert "k_std" in capsys.readouterr().err
+
+
+def test_the_whole_parser_loads_no_heavy_library() -> None:
+    """Every plug-in registered (agents, sim2real): ``brakewear --help`` imports none of
+    the libraries that take seconds; the commands import them when they run."""
+    import subprocess
+    import sys
+
+    heavy = ("torch", "stable_baselines3", "scipy", "matplotlib", "ray")
+    code = (
+        "import sys; from brake_env.cli.main import build_parser; build_parser();"
+        f" print(*[m for m in {heavy!r} if m in sys.modules])"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert done.returncode == 0 and done.stdout.split() == [], done.stdout + done.stderr[-500:]
+
+
+def test_a_command_named_by_its_path_is_imported_when_it_runs() -> None:
+    import os.path
+
+    from brake_env.cli.main import command
+
+    assert command("os.path:join") is os.path.join
+    assert command(print) is print
