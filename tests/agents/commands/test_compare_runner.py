@@ -24,7 +24,8 @@ from agents.study.pads import PadDraws, PadSet, collect_pads
 from brake_env.env.config import EnvConfig
 from brake_env.prognostics.protocol import NoPrognostics, Oracle
 from brake_env.runner import Runner, UnitStore
-from tests.agents.commands.test_train_compare import FAST, TINY, tiny_config
+from tests.agents.budgets import FAST, TINY
+from tests.agents.commands.test_train_compare import tiny_config
 
 ROOT = Path(__file__).resolve().parents[3]
 
