@@ -104,7 +104,8 @@ class _TrainUnits:
             pad_key(s, i) for s, d in self.draws.items() for i in range(len(pad_chunks(len(d))))
         ]
         self.out = Path(args.out)
-        self.store = open_store(self.out / UNITS, settings, [*keys, agent_key(args.predictor)])
+        keys = [*keys, agent_key(args.predictor)]
+        self.store = open_store(self.out / UNITS, settings, keys, "train")
 
     def run(
         self, atlas: Atlas, fitted: dict[str, Predictor], progress: Any

@@ -162,7 +162,7 @@ def cmd_diagnose(args: argparse.Namespace) -> dict[str, Any]:
 def cmd_validate_gap(args: argparse.Namespace) -> dict[str, Any]:
     """``brakewear validate-gap``: every case a unit of the runner, saved in ``OUT/units/``
     as it finishes; the same command again resumes from the saved cases."""
-    from sim2real.validate import case_key, open_store, selected_cases, validate_gap
+    from sim2real.validate import open_store, selected_cases, validate_gap
 
     _jobs_alias(args)
     out = Path(args.out)
@@ -171,9 +171,6 @@ def cmd_validate_gap(args: argparse.Namespace) -> dict[str, Any]:
     # Before any work (and before Ray starts): a store of other settings is refused.
     store = open_store(out / "units", atlas, spec, args.seed, args.only)
     todo = selected_cases(spec, args.seed, args.only)
-    done = sum(case_key(c) in store for c in todo)
-    if done:
-        print(f"resuming: {done} of {len(todo)} cases already done")
     t0 = time.perf_counter()
     with (
         make_runner(args) as runner,
