@@ -21,7 +21,7 @@ from brake_env.data.datasets import DatasetSpec, make_dataset
 from brake_env.data.schema import GROUND_TRUTH, read_event_log, write_event_log
 from brake_env.model.atlas import Atlas
 from brake_env.model.regime import WearRegime
-from brake_env.prognostics.commands import predict_units
+from brake_env.prognostics.commands import fit_predict, predict_units
 from brake_env.prognostics.commands.fit_predict import missing_channels
 from brake_env.prognostics.fleet import ESTIMATE_FIELDS, predict_runs
 from brake_env.prognostics.persist import load_predictor
@@ -209,6 +209,77 @@ def test_a_killed_predict_resumes_from_the_saved_units(
     predict(fitted, out, "--pads-per-unit", "1")
     assert len(calls) == N_PADS - saved
     assert_same_outputs(reference, out)
+
+
+def test_damaged_units_are_named_before_the_start_up_and_redone(
+    fitted: dict[str, Path],
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    reference = predict(fitted, tmp_path / "reference", "--pads-per-unit", "2")
+    real = predict_units.predict_pads
+    calls: list[list[str]] = []
+
+    def last_fails(model, atlas, runs):  # type: ignore[no-untyped-def]
+        calls.append([r for r, _ in runs])
+        if len(calls) == 4:
+            raise RuntimeError("worker lost")
+        return real(model, atlas, runs)
+
+    monkeypatch.setattr(predict_units, "predict_pads", last_fails)
+    out = tmp_path / "damaged"
+    assert main(predict_argv(fitted, out, "--pads-per-unit", "2")) == 2
+    units = out / "units"
+    cut = next(units.glob("pads-0000-*.json"))
+    cut.write_bytes(cut.read_bytes()[:40])
+    npz = next(units.glob("pads-0001-*.npz"))
+    npz.write_bytes(npz.read_bytes()[:-9] + b"012345678")
+    capsys.readouterr()
+
+    # The damage is told before the model is loaded (the long start-up).
+    told: list[str] = []
+    loaded = fit_predict.load_predictor
+
+    def load(*a):  # type: ignore[no-untyped-def]
+        told.append(capsys.readouterr().err)
+        return loaded(*a)
+
+    monkeypatch.setattr(fit_predict, "load_predictor", load)
+    calls[:] = []
+    predict(fitted, out, "--pads-per-unit", "2")
+    assert f"predict: unit pads-0000: {cut} is damaged (not whole JSON" in told[0]
+    assert f"predict: unit pads-0001: {npz.with_suffix('.json')} is damaged (its arrays" in told[0]
+    assert "predict: resuming: 1 of 4 units already done" in told[0]
+    assert len(calls) == 3  # the two damaged units and the failed one
+    assert_same_outputs(reference, out)
+
+
+def test_a_second_predict_into_the_same_out_refuses_naming_the_first(
+    fitted: dict[str, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "busy"
+    code = (
+        "import sys, time; from brake_env.units import open_store;"
+        " s = open_store(sys.argv[1], {}, [], 'predict'); print('locked', flush=True);"
+        " time.sleep(60)"
+    )
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)}
+    first = subprocess.Popen(
+        [sys.executable, "-c", code, str(out / "units")], stdout=subprocess.PIPE, text=True, env=env
+    )
+    try:
+        assert first.stdout is not None and first.stdout.readline().strip() == "locked"
+        assert main(predict_argv(fitted, out)) == 2
+        err = capsys.readouterr().err
+        assert f"{out / 'units'} is in use by another run (predict, pid {first.pid} on" in err
+        assert not (out / "fleet.csv").exists()
+    finally:
+        first.kill()
+        first.wait()
+    (out / "units" / "settings.json").unlink()  # the stand-in's settings are not predict's
+    predict(fitted, out)  # the first is gone: its lock is taken over
+    assert "taking over the lock" in capsys.readouterr().err
 
 
 def test_pads_are_cut_into_readable_units_in_order() -> None:
