@@ -19,6 +19,7 @@ from __future__ import annotations
 import contextlib
 import fcntl
 import hashlib
+import importlib.util
 import json
 import os
 import re
@@ -321,8 +322,6 @@ def _describe(held: Mapping[str, Any]) -> str:
 def code_digest() -> str:
     """SHA-256 (first 16 hex digits) of the project's Python sources as imported here: a
     store written by other code (an edited checkout, another version) is not resumed."""
-    import importlib.util
-
     h = hashlib.sha256()
     for pkg in ("brake_env", "twin", "baselines", "agents", "sim2real"):
         spec = importlib.util.find_spec(pkg)

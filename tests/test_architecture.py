@@ -78,7 +78,7 @@ def test_functions_and_modules_stay_short() -> None:
 # shared helpers). A stage's own command modules (commands/, cli.py, *_cli.py) may also use
 # brake_env.cli.
 PIPELINE = ("model", "data", "prognostics", "env", "cli")
-HELPERS = {"_validate", "output", "runner", "units"}
+HELPERS = {"_validate", "output", "runner", "saved", "units"}
 
 
 def test_brake_env_stages_import_only_earlier_stages() -> None:

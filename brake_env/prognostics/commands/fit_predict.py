@@ -33,6 +33,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pandas as pd
+import pyarrow as pa
+import pyarrow.parquet as pq
 from tqdm import tqdm
 
 from brake_env.cli.common import (
@@ -222,7 +224,7 @@ def _finish(
     ]
     for w in warnings:
         print(f"predict: warning: {w}", file=sys.stderr)
-    _write_outputs(out, fleet, traces, pred, header, args, warnings)
+    _write_outputs(out, fleet, traces, pred, header, args, warnings=warnings)
     shutil.rmtree(out / UNITS)
     return fleet
 
@@ -317,11 +319,9 @@ def _write_outputs(
     pred: Predictor,
     header: dict[str, Any],
     args: argparse.Namespace,
+    *,
     warnings: list[str],
 ) -> None:
-    import pyarrow as pa
-    import pyarrow.parquet as pq
-
     with atomic_path(out / "fleet.csv") as tmp:
         fleet.to_csv(tmp, index=False)
     doc = {
