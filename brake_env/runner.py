@@ -12,6 +12,7 @@ In this process is the default and needs no Ray; ``workers`` > 0 starts a local 
 that many CPUs; an address joins a running cluster (``auto``: the one this machine belongs
 to). Ray retries a task whose worker died; a unit that raises is reported by name after
 the other units have finished (and been saved), so a rerun redoes only the failed ones.
+The results are kept in a :class:`~brake_env.units.UnitStore` (:mod:`brake_env.units`).
 """
 
 from __future__ import annotations
