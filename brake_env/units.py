@@ -17,7 +17,6 @@ Opening a store, before any long work:
 from __future__ import annotations
 
 import contextlib
-import fcntl
 import hashlib
 import importlib.util
 import json
@@ -35,6 +34,9 @@ from typing import Any
 import numpy as np
 
 from brake_env.output import json_safe, read_arrays, sha256_file, write_arrays, write_json
+
+if sys.platform != "win32":  # Windows has no flock: there the lock names the run, unenforced
+    import fcntl
 
 _SAFE = re.compile(r"[^A-Za-z0-9_.=-]+")
 _ARRAY, _TUPLE, _FLOAT = "$array", "$tuple", "$float"
@@ -253,15 +255,16 @@ def _acquire(path: Path, command: str) -> Path:
         _HELD[path][1] += 1
         return path
     fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
-    try:
-        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-    except BlockingIOError:
-        held = _holder(fd)
-        os.close(fd)
-        raise StoreLocked(
-            f"{path.parent} is in use by another run ({_describe(held)}); wait for it to"
-            " finish or write to another --out"
-        ) from None
+    if sys.platform != "win32":
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            held = _holder(fd)
+            os.close(fd)
+            raise StoreLocked(
+                f"{path.parent} is in use by another run ({_describe(held)}); wait for it to"
+                " finish or write to another --out"
+            ) from None
     left = _holder(fd)
     if left:  # released locks are emptied: this one's holder ended without releasing it
         print(
@@ -276,7 +279,8 @@ def _acquire(path: Path, command: str) -> Path:
         "command": command,
     }
     os.ftruncate(fd, 0)
-    os.pwrite(fd, json.dumps(me).encode(), 0)
+    os.lseek(fd, 0, os.SEEK_SET)
+    os.write(fd, json.dumps(me).encode())
     os.fsync(fd)
     _HELD[path] = [fd, 1]
     return path
@@ -301,7 +305,8 @@ def _release(path: Path) -> None:
 
 def _holder(fd: int) -> dict[str, Any]:
     """What the lock file says of its holder ({} when empty or unreadable)."""
-    text = os.pread(fd, 4096, 0).decode(errors="replace")
+    os.lseek(fd, 0, os.SEEK_SET)
+    text = os.read(fd, 4096).decode(errors="replace")
     try:
         held = json.loads(text) if text.strip() else {}
     except json.JSONDecodeError:
