@@ -125,6 +125,7 @@ class MLPPredictor(Predictor):
     """
 
     name = "data"
+    kept_by_evaluate = True  # its weights: a random, costly fit
 
     def __init__(self, config: MLPConfig | None = None) -> None:
         super().__init__()

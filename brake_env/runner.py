@@ -12,13 +12,12 @@ In this process is the default and needs no Ray; ``workers`` > 0 starts a local 
 that many CPUs; an address joins a running cluster (``auto``: the one this machine belongs
 to). Ray retries a task whose worker died; a unit that raises is reported by name after
 the other units have finished (and been saved), so a rerun redoes only the failed ones.
+The results are kept in a :class:`~brake_env.units.UnitStore` (:mod:`brake_env.units`).
 """
 
 from __future__ import annotations
 
-import hashlib
 import os
-import re
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from concurrent.futures import Future, as_completed
 from dataclasses import dataclass
@@ -26,9 +25,9 @@ from functools import partial
 from pathlib import Path
 from typing import Any
 
-import numpy as np
+from brake_env.units import UnitStore
 
-from brake_env.output import read_arrays, write_arrays, write_json
+__all__ = ["AUTO", "RETRIES", "Runner", "Unit", "UnitStore", "UnitsFailed", "ray_available"]
 
 AUTO = "auto"
 RETRIES = 2  # Ray reruns a task this many times when its worker process dies
@@ -228,145 +227,3 @@ def _import_paths() -> list[str]:
 
     root = Path(brake_env.__file__).resolve().parent.parent
     return [str(root), *os.environ.get("PYTHONPATH", "").split(os.pathsep)][:8]
-
-
-# ---------------------------------------------------------------------- unit store
-_SAFE = re.compile(r"[^A-Za-z0-9_.=-]+")
-_ARRAY, _TUPLE, _FLOAT = "$array", "$tuple", "$float"
-SETTINGS = "settings.json"
-
-
-class UnitStore:
-    """Finished units' results in ``directory``: per unit a JSON file and, for its arrays,
-    an ``.npz`` (read back without pickle, its SHA-256 in the JSON, written first: a unit
-    counts as done once its JSON is there, whole). ``settings.json`` records what the run
-    was asked for, and the digest of the code that ran (:func:`code_digest`); a rerun asked
-    for anything else, or by other code, is refused rather than mixed.
-
-    A result is a tree of dicts (string keys), lists, tuples, numpy arrays, strings,
-    numbers, booleans and None.
-
-    Args:
-        directory: Where the units' files go.
-        settings: What the results depend on (JSON): seed, budget, atlas hash...
-
-    Raises:
-        ValueError: ``directory`` holds units of a run with other settings.
-    """
-
-    def __init__(self, directory: str | os.PathLike[str], settings: Mapping[str, Any]):
-        import json
-
-        from brake_env.output import json_safe
-
-        self.directory = Path(directory)
-        settings = {**settings, "code": code_digest()}
-        want = json.loads(json.dumps(json_safe(settings), allow_nan=False))
-        path = self.directory / SETTINGS
-        if path.is_file():
-            have = json.loads(path.read_text())
-            diff = sorted(k for k in {*have, *want} if have.get(k) != want.get(k))
-            if diff:
-                shown = ", ".join(f"{k}: {have.get(k)!r} -> {want.get(k)!r}" for k in diff)
-                raise ValueError(
-                    f"{self.directory} holds finished units of a run with other settings"
-                    f" ({shown}); resume with the same settings or write to another --out"
-                )
-        else:
-            write_json(want, path)
-        self.settings = want
-
-    def _stem(self, key: str) -> Path:
-        digest = hashlib.sha256(key.encode()).hexdigest()[:10]
-        return self.directory / f"{_SAFE.sub('_', key)[:60]}-{digest}"
-
-    def __contains__(self, key: str) -> bool:
-        return self._stem(key).with_suffix(".json").is_file()
-
-    def keys(self) -> list[str]:
-        """Keys of the units saved here."""
-        import json
-
-        return sorted(
-            json.loads(p.read_text())["key"]
-            for p in self.directory.glob("*.json")
-            if p.name != SETTINGS and not p.name.startswith(".")  # not a killed write's temp
-        )
-
-    def save(self, key: str, value: Any) -> None:
-        """Save a unit's result (arrays first, the JSON that vouches for them last)."""
-        arrays: dict[str, np.ndarray] = {}
-        tree = _encode(value, arrays)
-        stem = self._stem(key)
-        sha = write_arrays(arrays, stem.with_suffix(".npz")) if arrays else None
-        write_json({"key": key, "arrays_sha256": sha, "result": tree}, stem.with_suffix(".json"))
-
-    def load(self, key: str) -> Any:
-        """A saved unit's result.
-
-        Raises:
-            ValueError: The files are not this key's, or its arrays were changed.
-        """
-        import json
-
-        stem = self._stem(key)
-        doc = json.loads(stem.with_suffix(".json").read_text())
-        if doc.get("key") != key:
-            raise ValueError(f"{stem}.json holds unit {doc.get('key')!r}, not {key!r}")
-        sha = doc.get("arrays_sha256")
-        arrays = read_arrays(stem.with_suffix(".npz"), sha, f"unit {key}") if sha else {}
-        return _decode(doc["result"], arrays)
-
-
-def code_digest() -> str:
-    """SHA-256 (first 16 hex digits) of the project's Python sources as imported here: a
-    store written by other code (an edited checkout, another version) is not resumed."""
-    import importlib.util
-
-    h = hashlib.sha256()
-    for pkg in ("brake_env", "twin", "baselines", "agents", "sim2real"):
-        spec = importlib.util.find_spec(pkg)
-        if spec is None or not spec.submodule_search_locations:
-            continue
-        root = Path(next(iter(spec.submodule_search_locations)))
-        for path in sorted(root.rglob("*.py")):
-            h.update(str(path.relative_to(root.parent)).encode())
-            h.update(path.read_bytes())
-    return h.hexdigest()[:16]
-
-
-def _encode(x: Any, arrays: dict[str, np.ndarray]) -> Any:
-    if isinstance(x, np.ndarray):
-        name = f"a{len(arrays)}"
-        arrays[name] = x
-        return {_ARRAY: name}
-    if isinstance(x, np.generic):
-        x = x.item()
-    if isinstance(x, float) and not np.isfinite(x):
-        return {_FLOAT: repr(x)}
-    if x is None or isinstance(x, str | int | float | bool):
-        return x
-    if isinstance(x, Mapping):
-        bad = [k for k in x if not isinstance(k, str) or k.startswith("$")]
-        if bad:
-            raise TypeError(f"unit results need string keys (not starting with $), got {bad}")
-        return {k: _encode(v, arrays) for k, v in x.items()}
-    if isinstance(x, tuple):
-        return {_TUPLE: [_encode(v, arrays) for v in x]}
-    if isinstance(x, list):
-        return [_encode(v, arrays) for v in x]
-    raise TypeError(f"a unit result cannot hold a {type(x).__name__}")
-
-
-def _decode(x: Any, arrays: Mapping[str, np.ndarray]) -> Any:
-    if isinstance(x, list):
-        return [_decode(v, arrays) for v in x]
-    if not isinstance(x, dict):
-        return x
-    if _ARRAY in x:
-        return arrays[x[_ARRAY]]
-    if _FLOAT in x:
-        return float(x[_FLOAT])
-    if _TUPLE in x:
-        return tuple(_decode(v, arrays) for v in x[_TUPLE])
-    return {k: _decode(v, arrays) for k, v in x.items()}

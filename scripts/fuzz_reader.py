@@ -18,9 +18,7 @@ import tempfile
 import time
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-
-from tests.brake_env.data.fuzz_logs import run_all
+from fuzz_logs import run_all  # beside this script (its directory is on the path)
 
 
 def main() -> int:

@@ -113,7 +113,8 @@ class _TrainUnits:
         keys = [
             pad_key(s, i) for s, d in self.draws.items() for i in range(len(pad_chunks(len(d))))
         ]
-        self.store = open_store(run.out / UNITS, settings, [*keys, agent_key(job.predictor)])
+        keys = [*keys, agent_key(job.predictor)]
+        self.store = open_store(run.out / UNITS, settings, keys, "train")
 
     def run(
         self, atlas: Atlas, fitted: dict[str, Predictor], runner: Runner, progress: Any

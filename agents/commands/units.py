@@ -12,7 +12,6 @@ thread), so the figures are the same wherever the units run.
 from __future__ import annotations
 
 import json
-import sys
 import tempfile
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import asdict, dataclass, replace
@@ -28,7 +27,9 @@ from brake_env.env.config import EnvConfig
 from brake_env.model.atlas import Atlas
 from brake_env.output import atomic_path, write_json
 from brake_env.prognostics.protocol import Predictor
-from brake_env.runner import Unit, UnitStore
+from brake_env.runner import Unit
+from brake_env.units import UnitStore
+from brake_env.units import open_store as units_store
 
 # Pads per unit: two of collect_pads' groups; small enough that a few workers finish
 # together (a unit is seconds of work) and an interrupted run loses little.
@@ -199,19 +200,18 @@ def write_trained(unit: Mapping[str, Any], out_dir: str | Path) -> TrainResult:
 
 
 # ---------------------------------------------------------------------- store
-def open_store(directory: Path, settings: Mapping[str, Any], keys: Sequence[str]) -> UnitStore:
+def open_store(
+    directory: Path, settings: Mapping[str, Any], keys: Sequence[str], command: str = "compare"
+) -> UnitStore:
     """The unit store of a run (``settings``: what its results depend on; the chunk size
-    and the package version added); says how many of the run's units ``keys`` are done.
+    and the package version added): :func:`brake_env.units.open_store`.
 
     Raises:
-        ValueError: ``directory`` holds units of a run with other settings.
+        ValueError: ``directory`` holds units of a run with other settings, or another
+            run is writing there.
     """
     from brake_env.prognostics.persist import package_version
 
     # The chunking too: the pads of a unit key depend on it.
     version = {"chunk_pads": CHUNK_PADS, "package_version": package_version()}
-    store = UnitStore(directory, {**settings, **version})
-    done = sum(k in store for k in keys)
-    if done:
-        print(f"resuming: {done} of {len(keys)} units already done ({directory})", file=sys.stderr)
-    return store
+    return units_store(directory, {**settings, **version}, keys, command)

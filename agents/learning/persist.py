@@ -30,6 +30,7 @@ from numpy.typing import NDArray
 
 from agents.learning.normalization import ObsNormalization
 from brake_env.output import read_arrays, write_arrays, write_text
+from brake_env.saved import SavedFormat, read_saved_header
 
 if TYPE_CHECKING:
     from stable_baselines3 import DQN, PPO
@@ -46,6 +47,15 @@ FORMAT = "brakewear-agent"
 FORMAT_VERSION = 1
 HEADER = "agent.json"
 ARRAYS = "agent.npz"
+SAVED = SavedFormat(
+    "agent",
+    "agent",
+    HEADER,
+    FORMAT,
+    FORMAT_VERSION,
+    ("algo", "policy", "observation_space", "action_space", "normalization", "arrays_sha256"),
+    redo="train it again",
+)
 _STATE = "policy."
 _CLASS = "$class"
 # bool, ints, floats: what a policy's state and the statistics are made of.
@@ -207,32 +217,14 @@ def read_agent_header(path: str | os.PathLike[str]) -> dict[str, Any]:
         ValueError: Not a brakewear agent, or a format version this version does not read.
     """
     path = Path(path)
-    head = path / HEADER
-    if not head.is_file():
-        hint = ""
-        if (path / "model.zip").is_file():
-            hint = (
-                ": it holds only SB3's model.zip, which loads by unpickling (a crafted file runs"
-                " code); if you trust it,"
-                " agents.learning.persist.convert_trusted_model_zip converts it"
-            )
-        raise FileNotFoundError(f"agent {path}: no {HEADER}{hint}")
-    try:
-        header = json.loads(head.read_bytes())
-    except (json.JSONDecodeError, UnicodeDecodeError) as e:
-        raise ValueError(f"agent {path}: {HEADER} is not valid JSON ({e})") from None
-    if not isinstance(header, dict) or header.get("format") != FORMAT:
-        raise ValueError(f"agent {path}: {HEADER} is not a brakewear agent header")
-    got = header.get("format_version")
-    if got != FORMAT_VERSION:
-        raise ValueError(
-            f"agent {path}: format version {got!r}, this brakewear reads {FORMAT_VERSION}"
+    hint = ""
+    if not (path / HEADER).is_file() and (path / "model.zip").is_file():
+        hint = (
+            ": it holds only SB3's model.zip, which loads by unpickling (a crafted file runs"
+            " code); if you trust it,"
+            " agents.learning.persist.convert_trusted_model_zip converts it"
         )
-    need = ("algo", "policy", "observation_space", "action_space", "normalization")
-    missing = [k for k in (*need, "arrays_sha256") if k not in header]
-    if missing:
-        raise ValueError(f"agent {path}: {HEADER} lacks {missing}")
-    return header
+    return read_saved_header(path, SAVED, hint)
 
 
 def read_agent(path: str | os.PathLike[str]) -> tuple[dict[str, Any], dict[str, NDArray[Any]]]:

@@ -10,8 +10,7 @@ from typing import Any
 
 from brake_env.cli import demo, simulate
 from brake_env.cli.common import plugins
-from brake_env.prognostics import cli as evaluate
-from brake_env.prognostics import fleet_cli
+from brake_env.prognostics.commands import evaluate, fit_predict
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -21,7 +20,7 @@ def build_parser() -> argparse.ArgumentParser:
     simulate.register(sub)
     demo.register(sub)
     evaluate.register(sub)
-    fleet_cli.register(sub)
+    fit_predict.register(sub)
     # Commands of the downstream packages (twin, baselines, agents, sim2real) register
     # themselves as plug-ins, so brake_env never imports them (imports flow one way: README
     # "Architecture").

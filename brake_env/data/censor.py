@@ -14,10 +14,10 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from brake_env.data.schema import FAILED, MEASURED_VOLUME
+from brake_env.data.schema import FAILED, MEASURED_VOLUME, TRUTH
 
 # Known only in simulation; ``failed`` stays: a fleet knows which pads failed.
-TRUTH_DROPPED = ("volume_frac", "wear_coeff", "rul_events")
+TRUTH_DROPPED = TRUTH
 
 
 def censor_log(

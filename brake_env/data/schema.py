@@ -75,9 +75,10 @@ OPTIONAL = (
 )
 COLUMNS = {c.name: c for c in REQUIRED + OPTIONAL}
 SENSOR_CHANNELS = tuple(c.name for c in REQUIRED if c.nan_ok)
-# The columns a simulated log adds; ``failed`` is an observed outcome in a fleet log too.
-GROUND_TRUTH = ("volume_frac", "wear_coeff", "rul_events", "failed")
 FAILED = "failed"
+TRUTH = ("volume_frac", "wear_coeff", "rul_events")  # only in simulation: the true state
+# The columns a simulated log adds; ``failed`` is an observed outcome in a fleet log too.
+GROUND_TRUTH = (*TRUTH, FAILED)
 MEASURED_VOLUME = "measured_volume_frac"
 
 

@@ -169,7 +169,7 @@ class RULVectorObservation(
             self._fleet = (
                 self.predictor.fleet(self.num_envs)  # type: ignore[attr-defined]
                 if vectorises(self.predictor)
-                else LoopFleet(self.predictor, self.num_envs)  # type: ignore[arg-type]
+                else LoopFleet(self.predictor, self.num_envs)
             )
         envs = np.flatnonzero(infos.get("_events", np.zeros(self.num_envs, dtype=bool)))
         if envs.size == 0:

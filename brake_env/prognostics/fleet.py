@@ -17,15 +17,12 @@ import itertools
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Sequence
 from dataclasses import fields
-from typing import TYPE_CHECKING, Any
+from typing import Any, TypeVar
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from brake_env.prognostics.protocol import EventBatch, RULEstimate
-
-if TYPE_CHECKING:
-    from brake_env.prognostics.protocol import Predictor, RULPredictor
+from brake_env.prognostics.events import EventBatch, RULEstimate, RULPredictor
 
 ESTIMATE_FIELDS = ("rul_mean", "rul_lower", "rul_upper", "volume_frac", "wear_coeff")
 CALL_ROWS = 1 << 18  # rows per fleet update in predict_runs: bounds memory, paces progress
@@ -116,13 +113,21 @@ def take_events(events: EventBatch, rows: NDArray[np.intp]) -> EventBatch:
     return EventBatch(**taken)
 
 
+_Method = TypeVar("_Method", bound=Callable[..., Any])
+
+
+def loops_pads(fleet_method: _Method) -> _Method:
+    """Marks a ``fleet`` method that loops over copies of the predictor (:class:`LoopFleet`,
+    the base class's default), so that :func:`vectorises` tells it from a fleet of its own."""
+    fleet_method.loops_pads = True  # type: ignore[attr-defined]
+    return fleet_method
+
+
 def vectorises(predictor: RULPredictor) -> bool:
     """Whether ``predictor`` has a fleet of its own (not the per-slot copies of
     :class:`LoopFleet`)."""
-    from brake_env.prognostics.protocol import Predictor
-
     own = getattr(type(predictor), "fleet", None)
-    return own is not None and own is not Predictor.fleet
+    return own is not None and not getattr(own, "loops_pads", False)
 
 
 def predict_runs(
@@ -191,7 +196,7 @@ def _one_pad(
 class LoopFleet(Fleet):
     """The reference fleet: one copy of the fitted predictor per slot, updated in turn."""
 
-    def __init__(self, predictor: Predictor, n_pads: int) -> None:
+    def __init__(self, predictor: RULPredictor, n_pads: int) -> None:
         super().__init__(n_pads)
         self._pads = [copy.deepcopy(predictor) for _ in range(n_pads)]
         for p in self._pads:

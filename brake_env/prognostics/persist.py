@@ -33,11 +33,20 @@ from brake_env.model.atlas import Atlas
 from brake_env.output import PLAIN_KINDS, read_arrays, write_arrays, write_text
 from brake_env.prognostics.protocol import Predictor
 from brake_env.prognostics.registry import make_predictor
+from brake_env.saved import SavedFormat, read_saved_header
 
 FORMAT = "brakewear-predictor"
 FORMAT_VERSION = 1
 HEADER = "predictor.json"
 ARRAYS = "arrays.npz"
+SAVED = SavedFormat(
+    "model",
+    "predictor",
+    HEADER,
+    FORMAT,
+    FORMAT_VERSION,
+    ("predictor", "atlas_hash", "arrays_sha256", "meta"),
+)
 
 
 def package_version() -> str:
@@ -114,28 +123,9 @@ def read_header(path: str | os.PathLike[str]) -> dict[str, Any]:
         ValueError: Not a brakewear predictor, or a format this version does not read.
     """
     path = Path(path)
-    head = path / HEADER
     if not path.is_dir():
         raise FileNotFoundError(f"model {path}: no such directory (write one with brakewear fit)")
-    if not head.is_file():
-        raise FileNotFoundError(f"model {path}: no {HEADER} (not a model, or its fit was cut off)")
-    try:
-        header = json.loads(head.read_bytes())
-    except (json.JSONDecodeError, UnicodeDecodeError) as e:
-        raise ValueError(f"model {path}: {HEADER} is not valid JSON ({e})") from None
-    if not isinstance(header, dict) or header.get("format") != FORMAT:
-        raise ValueError(f"model {path}: {HEADER} is not a brakewear predictor header")
-    got = header.get("format_version")
-    if got != FORMAT_VERSION:
-        hint = "upgrade brakewear" if isinstance(got, int) and got > FORMAT_VERSION else "refit"
-        raise ValueError(
-            f"model {path}: format version {got!r}, this brakewear reads version"
-            f" {FORMAT_VERSION} ({hint})"
-        )
-    missing = [k for k in ("predictor", "atlas_hash", "arrays_sha256", "meta") if k not in header]
-    if missing:
-        raise ValueError(f"model {path}: {HEADER} lacks {missing}")
-    return header
+    return read_saved_header(path, SAVED, " (not a model, or its fit was cut off)")
 
 
 def check_atlas(header: Mapping[str, Any], atlas_hash: str, path: str | os.PathLike[str]) -> None:

@@ -88,11 +88,15 @@ def check_seeds(seeds: Sequence[int]) -> list[int]:
 def make_predictors(
     names: Sequence[str], atlas: Atlas, seed: int, mlp_epochs: int | None = None
 ) -> dict[str, Predictor]:
-    """Unfitted predictors by name, made with ``seed`` (``mlp_epochs`` for the MLP)."""
+    """Unfitted predictors by name, made with ``seed``; ``mlp_epochs`` (when given) for
+    every predictor trained in epochs (its ``config`` has ``epochs``: the MLP)."""
     predictors = {n: make_predictor(n, atlas, seed) for n in names}
-    if mlp_epochs and "data" in predictors:
-        mlp = predictors["data"]
-        mlp.config = dataclasses.replace(mlp.config, epochs=mlp_epochs)  # type: ignore[attr-defined]
+    for pred in predictors.values():
+        config = getattr(pred, "config", None)
+        if not (mlp_epochs and hasattr(config, "epochs")):
+            continue
+        if dataclasses.is_dataclass(config) and not isinstance(config, type):
+            pred.config = dataclasses.replace(config, epochs=mlp_epochs)  # type: ignore[attr-defined]
     return predictors
 
 

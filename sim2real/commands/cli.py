@@ -29,7 +29,7 @@ from brake_env.cli.common import (
 from brake_env.data.schema import read_event_log
 from brake_env.model.atlas import Atlas
 from brake_env.output import write_json, write_text
-from sim2real.commands.units import case_key, open_store, validate_gap
+from sim2real.commands.units import open_store, validate_gap
 from sim2real.diagnosis.config import DiagnosisConfig
 from sim2real.diagnosis.diagnose import diagnose
 from sim2real.diagnosis.preconditions import check_log
@@ -91,9 +91,6 @@ def cmd_validate_gap(args: argparse.Namespace) -> dict[str, Any]:
     # Before any work (and before Ray starts): a store of other settings is refused.
     store = open_store(out / "units", atlas, spec, args.seed, args.only)
     todo = selected_cases(spec, args.seed, args.only)
-    done = sum(case_key(c) in store for c in todo)
-    if done:
-        print(f"resuming: {done} of {len(todo)} cases already done")
     t0 = time.perf_counter()
     with (
         make_runner(args) as runner,

@@ -14,7 +14,9 @@ from typing import Any
 
 from brake_env.model.atlas import Atlas
 from brake_env.prognostics.persist import package_version
-from brake_env.runner import Runner, Unit, UnitStore
+from brake_env.runner import Runner, Unit
+from brake_env.units import UnitStore
+from brake_env.units import open_store as units_store
 from sim2real.validation.validate import (
     Case,
     ValidationSpec,
@@ -58,12 +60,16 @@ def open_store(
     seed: int,
     case_filter: Sequence[str] | None = None,
 ) -> UnitStore:
-    """The store of finished cases in ``directory`` (created if new).
+    """The store of finished cases in ``directory`` (created if new, locked, checked:
+    :func:`brake_env.units.open_store`), saying how many of the cases are done.
 
     Raises:
-        ValueError: ``directory`` holds cases of a validation with other settings.
+        ValueError: ``directory`` holds cases of a validation with other settings, or
+            another run is writing there.
     """
-    return UnitStore(directory, store_settings(atlas, spec, seed, case_filter))
+    keys = [case_key(c) for c in selected_cases(spec, seed, case_filter)]
+    settings = store_settings(atlas, spec, seed, case_filter)
+    return units_store(directory, settings, keys, "validate-gap", noun="cases")
 
 
 def validate_gap(

@@ -118,7 +118,7 @@ def test_missing_readings_and_bad_config(fitted: MLPPredictor, train: pd.DataFra
 def test_torch_is_imported_only_by_the_mlp() -> None:
     code = (
         "import sys, baselines, brake_env.prognostics.evaluation, brake_env.prognostics.plots,"
-        " brake_env.prognostics.registry, brake_env.prognostics.cli;"
+        " brake_env.prognostics.registry, brake_env.prognostics.commands.evaluate;"
         " from baselines import PhysicsPredictor;"
         " assert 'torch' not in sys.modules, 'torch imported'"
     )

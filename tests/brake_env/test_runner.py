@@ -100,10 +100,10 @@ def test_duplicate_keys_are_refused():
 
 
 def test_a_store_written_by_other_code_is_not_resumed(tmp_path, monkeypatch):
-    import brake_env.runner as runner
+    import brake_env.units as units_module
 
     UnitStore(tmp_path, {"seed": 0})
-    monkeypatch.setattr(runner, "code_digest", lambda: "edited")
+    monkeypatch.setattr(units_module, "code_digest", lambda: "edited")
     with pytest.raises(ValueError, match=r"code: '[0-9a-f]{16}' -> 'edited'"):
         UnitStore(tmp_path, {"seed": 0})
 

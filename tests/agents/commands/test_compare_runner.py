@@ -155,8 +155,8 @@ def test_a_killed_compare_resumes_to_the_same_costs(tmp_path):
         time.sleep(0.01)
     killed.send_signal(signal.SIGKILL)
     killed.communicate()
-    store = UnitStore(units, json.loads((units / "settings.json").read_text()))
-    done = sum(k in store for k in KEYS)
+    with UnitStore(units, json.loads((units / "settings.json").read_text())) as store:
+        done = sum(k in store for k in KEYS)  # closed: the rerun takes the store's lock
     assert 1 <= done < len(KEYS) and not (tmp_path / "run" / "costs.json").exists()
     _, err = compare(tmp_path / "run").communicate()
     assert f"resuming: {done} of {len(KEYS)} units already done" in err, err

@@ -158,7 +158,7 @@ def test_a_killed_run_resumes_to_the_uninterrupted_result(
 
     rerun = subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=240)
     assert rerun.returncode == 0, rerun.stderr
-    assert "resuming: 1 of 2 cases already done" in rerun.stdout
+    assert "validate-gap: resuming: 1 of 2 cases already done" in rerun.stderr
     result = json.loads((out / "validation.json").read_text())
     assert _as_json(result) == _as_json(reference[0])
     assert (result["settings"]["workers"], result["settings"]["ray"]) == (0, None)

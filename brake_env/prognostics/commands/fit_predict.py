@@ -12,7 +12,7 @@ where the predictor gives them and the events since installation:
 - ``traces.parquet``: the estimate after every event of every pad;
 - ``fleet.png``: RUL bars with intervals, and each pad's RUL along its events.
 
-The pads run in units of a few pads (:mod:`~brake_env.prognostics.fleet_units`), in this
+The pads run in units of a few pads (:mod:`~brake_env.prognostics.commands.predict_units`), in this
 process or on Ray (``--workers``, ``--ray``; README "Running on a cluster"), each saved
 under ``OUT/units/`` as it finishes: an interrupted predict run again resumes there.
 
@@ -33,6 +33,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pandas as pd
+import pyarrow as pa
+import pyarrow.parquet as pq
 from tqdm import tqdm
 
 from brake_env.cli.common import (
@@ -47,16 +49,17 @@ from brake_env.data.runs import run_ends
 from brake_env.data.schema import read_event_log
 from brake_env.model.atlas import Atlas, AtlasSpec, cached_atlas
 from brake_env.output import atomic_path, table, write_json
-from brake_env.prognostics import fleet_units
+from brake_env.prognostics.commands import predict_units
 from brake_env.prognostics.persist import (
     check_atlas,
     load_predictor,
     read_header,
     save_predictor,
 )
-from brake_env.prognostics.protocol import MEASURED, Predictor, iter_runs
+from brake_env.prognostics.protocol import MEASURED, EventBatch, Predictor, iter_runs
 from brake_env.prognostics.registry import make_predictor, predictor_names
-from brake_env.runner import UnitsFailed, UnitStore
+from brake_env.runner import UnitsFailed
+from brake_env.units import UnitStore, open_store
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -95,7 +98,7 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
     p.add_argument(
         "--pads-per-unit",
         type=int_at_least(1),
-        default=fleet_units.PADS_PER_UNIT,
+        default=predict_units.PADS_PER_UNIT,
         help="pads per unit of work: units run in parallel with --workers/--ray, and an"
         " interrupted predict resumes from the units saved in OUT/units/ (the estimates do"
         " not depend on where units run; another chunking moves them by rounding, ~1e-13)",
@@ -175,9 +178,9 @@ UNITS = "units"  # the unit store under --out: removed once the outputs are writ
 def cmd_predict(args: argparse.Namespace) -> pd.DataFrame:
     """``brakewear predict``; returns the fleet table.
 
-    The pads run in units of ``--pads-per-unit`` (:mod:`~brake_env.prognostics.fleet_units`),
-    here or on Ray, each saved under ``OUT/units/`` as it finishes, so an interrupted
-    predict resumes; that store goes once the outputs hold every pad."""
+    The pads run in units of ``--pads-per-unit`` (:mod:`.predict_units`), here or on Ray,
+    each saved under ``OUT/units/`` as it finishes, so an interrupted predict resumes; that
+    store goes once the outputs hold every pad."""
     t0 = time.perf_counter()
     header = read_header(args.model)
     atlas_of = _atlas_loader(header, args)  # checks the atlas hash, builds nothing yet
@@ -186,23 +189,15 @@ def cmd_predict(args: argparse.Namespace) -> pd.DataFrame:
     if out.exists() and not out.is_dir():
         raise ValueError(f"--out {out}: exists and is not a directory")
     missing = missing_channels(log)
-    atlas = atlas_of()
-    pred = load_predictor(args.model, atlas)
-    try:
-        traces, rows = _predict_units(pred, header, atlas, log, args)
-    finally:
-        fleet_units.forget()
-    fleet = fleet_units.sort_table(rows, missing)
-    warnings = [
-        f"pad {run}: {', '.join(ch)} missing at every event; {pred.name} cannot use"
-        f" {'them' if len(ch) > 1 else 'it'} for this pad (a predictor that needs it gives"
-        " what it learned in training: the twin its prior over K)"
-        for run, ch in missing.items()
-    ]
-    for w in warnings:
-        print(f"predict: warning: {w}", file=sys.stderr)
-    _write_outputs(out, fleet, traces, pred, header, args, warnings)
-    shutil.rmtree(out / UNITS)
+    runs = list(iter_runs(log))
+    with _open_store(header, args, len(runs)) as store:  # before the long start-up
+        atlas = atlas_of()
+        pred = load_predictor(args.model, atlas)
+        try:
+            traces, rows = _predict_units(pred, (header, atlas), runs, args, store)
+        finally:
+            predict_units.forget()
+        fleet = _finish(out, (traces, rows), missing, pred, (header, args))
     print(table(_display_rows(fleet)))
     print(
         f"\n{len(fleet)} pads, {len(log):,} events in {time.perf_counter() - t0:.1f} s;"
@@ -211,29 +206,61 @@ def cmd_predict(args: argparse.Namespace) -> pd.DataFrame:
     return fleet
 
 
+def _finish(
+    out: Path,
+    outputs: tuple[pd.DataFrame, pd.DataFrame],
+    missing: dict[str, list[str]],
+    pred: Predictor,
+    context: tuple[dict[str, Any], argparse.Namespace],
+) -> pd.DataFrame:
+    """Write the outputs of the units' ``(traces, rows)`` and drop the store; the table."""
+    (traces, rows), (header, args) = outputs, context
+    fleet = predict_units.sort_table(rows, missing)
+    warnings = [
+        f"pad {run}: {', '.join(ch)} missing at every event; {pred.name} cannot use"
+        f" {'them' if len(ch) > 1 else 'it'} for this pad (a predictor that needs it gives"
+        " what it learned in training: the twin its prior over K)"
+        for run, ch in missing.items()
+    ]
+    for w in warnings:
+        print(f"predict: warning: {w}", file=sys.stderr)
+    _write_outputs(out, fleet, traces, pred, header, args, warnings=warnings)
+    shutil.rmtree(out / UNITS)
+    return fleet
+
+
+def _open_store(header: dict[str, Any], args: argparse.Namespace, n_pads: int) -> UnitStore:
+    """The predict's unit store (locked, checked), opened before the atlas and model load:
+    a store of other settings, a damaged unit or another run in ``--out`` is told first."""
+    ppu = args.pads_per_unit
+    settings = predict_units.store_settings(args.model, args.log, header["atlas_hash"], n_pads, ppu)
+    keys = predict_units.unit_keys(n_pads, ppu)
+    return open_store(Path(args.out) / UNITS, settings, keys, "predict")
+
+
 def _predict_units(
     pred: Predictor,
-    header: dict[str, Any],
-    atlas: Atlas,
-    log: pd.DataFrame,
+    fitted: tuple[dict[str, Any], Atlas],
+    runs: list[tuple[str, EventBatch]],
     args: argparse.Namespace,
+    store: UnitStore,
 ) -> tuple[pd.DataFrame, pd.DataFrame]:
     """(traces, unsorted per-pad rows) of every pad, unit by unit (or read back from the
-    store of an interrupted run with the same settings)."""
-    runs = list(iter_runs(log))
+    store of an interrupted run with the same settings); ``fitted``: the model's header
+    and atlas."""
+    header, atlas = fitted
     ppu = args.pads_per_unit
-    settings = fleet_units.store_settings(args.model, args.log, atlas, len(runs), ppu)
-    store = UnitStore(Path(args.out) / UNITS, settings)
+    n_events = sum(len(ev) for _, ev in runs)
     with (
         make_runner(args) as runner,
         tqdm(
-            total=len(log), desc="predict", unit="event", unit_scale=True, disable=args.quiet
+            total=n_events, desc="predict", unit="event", unit_scale=True, disable=args.quiet
         ) as bar,
     ):
-        model = runner.share(fleet_units.SavedModel.of(pred, args.model, header, atlas))
-        units = fleet_units.pad_units(model, runner.share(atlas), runs, ppu)
+        model = runner.share(predict_units.SavedModel.of(pred, args.model, header, atlas))
+        units = predict_units.pad_units(model, runner.share(atlas), runs, ppu)
         try:
-            return fleet_units.run_pads(runner, units, store, bar.update)
+            return predict_units.run_pads(runner, units, store, bar.update)
         except UnitsFailed as e:
             raise ValueError(
                 f"{e}\nthe other units are saved in {store.directory}; run the same command"
@@ -292,11 +319,9 @@ def _write_outputs(
     pred: Predictor,
     header: dict[str, Any],
     args: argparse.Namespace,
+    *,
     warnings: list[str],
 ) -> None:
-    import pyarrow as pa
-    import pyarrow.parquet as pq
-
     with atomic_path(out / "fleet.csv") as tmp:
         fleet.to_csv(tmp, index=False)
     doc = {

@@ -12,7 +12,7 @@ from brake_env.cli.main import build_parser, main
 from brake_env.data.datasets import DatasetSpec, make_dataset, write_dataset
 from brake_env.model.atlas import Atlas
 from brake_env.model.regime import WearRegime
-from brake_env.prognostics.cli import demo_stage
+from brake_env.prognostics.commands.evaluate import demo_stage
 
 TINY = DatasetSpec(n_train=3, n_id=2, n_ood_slow=1, n_ood_fast=1, wear=WearRegime(2e-4, 2e-5))
 

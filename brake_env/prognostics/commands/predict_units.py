@@ -16,7 +16,6 @@ process rebuilds the predictor once (the twin builds its grid in ~1 s), not once
 from __future__ import annotations
 
 import hashlib
-import sys
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -30,9 +29,10 @@ from brake_env.model.atlas import Atlas
 from brake_env.output import sha256_file
 from brake_env.prognostics.fleet import ESTIMATE_FIELDS, predict_runs
 from brake_env.prognostics.persist import HEADER, package_version
-from brake_env.prognostics.protocol import EventBatch, Predictor, iter_runs
+from brake_env.prognostics.protocol import EventBatch, Predictor
 from brake_env.prognostics.registry import make_predictor
-from brake_env.runner import Runner, Unit, UnitStore
+from brake_env.runner import Runner, Unit
+from brake_env.units import UnitStore
 
 PADS_PER_UNIT = 8  # pads per unit: enough units to keep 2+ workers busy, few files
 RESULT_FORMAT = 1  # layout of a unit's result; a store of another layout is refused
@@ -122,20 +122,29 @@ def predict_pads(
 def pad_units(
     model: Any, atlas: Any, runs: Sequence[tuple[str, EventBatch]], pads_per_unit: int
 ) -> list[Unit]:
-    """The units of a fleet: ``pads-0000``, ``pads-0001``... of ``pads_per_unit`` pads each,
-    in order; ``model`` and ``atlas`` as :meth:`Runner.share` gave them."""
-    if pads_per_unit < 1:
-        raise ValueError(f"pads per unit must be >= 1, got {pads_per_unit}")
+    """The units of a fleet: ``pads-0000``, ``pads-0001``... (:func:`unit_keys`) of
+    ``pads_per_unit`` pads each, in order; ``model`` and ``atlas`` as :meth:`Runner.share`
+    gave them."""
+    keys = unit_keys(len(runs), pads_per_unit)
     starts = range(0, len(runs), pads_per_unit)
-    width = max(4, len(str(len(starts) - 1)))
     return [
-        Unit(f"pads-{i:0{width}d}", predict_pads, (model, atlas, list(runs[a : a + pads_per_unit])))
-        for i, a in enumerate(starts)
+        Unit(key, predict_pads, (model, atlas, list(runs[a : a + pads_per_unit])))
+        for key, a in zip(keys, starts, strict=True)
     ]
 
 
+def unit_keys(n_pads: int, pads_per_unit: int) -> list[str]:
+    """The keys of a fleet's units: ``pads-0000``, ``pads-0001``..., one per
+    ``pads_per_unit`` pads."""
+    if pads_per_unit < 1:
+        raise ValueError(f"pads per unit must be >= 1, got {pads_per_unit}")
+    n = len(range(0, n_pads, pads_per_unit))
+    width = max(4, len(str(n - 1)))
+    return [f"pads-{i:0{width}d}" for i in range(n)]
+
+
 def store_settings(
-    model_dir: str | Path, log_path: str | Path, atlas: Atlas, n_pads: int, pads_per_unit: int
+    model_dir: str | Path, log_path: str | Path, atlas_hash: str, n_pads: int, pads_per_unit: int
 ) -> dict[str, Any]:
     """What a predict's units depend on: a store of other settings is refused."""
     log = Path(log_path)
@@ -144,22 +153,12 @@ def store_settings(
         "model_sha256": model_checksum(model_dir),
         "log_sha256": sha256_file(log),
         "log_bytes": log.stat().st_size,
-        "atlas_hash": atlas.content_hash,
+        "atlas_hash": atlas_hash,
         "pads": n_pads,
         "pads_per_unit": pads_per_unit,
         "package_version": package_version(),
         "result_format": RESULT_FORMAT,
     }
-
-
-def say_resumed(command: str, units: Sequence[Unit], store: UnitStore) -> None:
-    """Tell how many units an interrupted run left in ``store`` (they are read, not rerun)."""
-    done = sum(u.key in store for u in units)
-    if done:
-        print(
-            f"{command}: resuming: {done} of {len(units)} units read from {store.directory}",
-            file=sys.stderr,
-        )
 
 
 def run_pads(
@@ -168,16 +167,13 @@ def run_pads(
     store: UnitStore | None,
     progress: Callable[[int], object] | None = None,
 ) -> tuple[pd.DataFrame, pd.DataFrame]:
-    """Run (or read back) every unit; (traces, fleet table) as
-    :func:`~brake_env.prognostics.fleet_cli.run_fleet` and ``fleet_table`` lay them out,
-    the table not yet sorted and without ``missing_channels``."""
+    """Run (or read back) every unit; (traces, fleet table), the table not yet sorted and
+    without ``missing_channels``."""
 
     def tick(_key: str, result: Any) -> None:
         if progress:
             progress(int(np.sum(result["pads"]["events_logged"])))
 
-    if store is not None:
-        say_resumed("predict", units, store)
     results = list(runner.run(units, store, tick).values())
     return merge(results)
 
@@ -211,47 +207,6 @@ def merge(results: Sequence[Mapping[str, Any]]) -> tuple[pd.DataFrame, pd.DataFr
     for f in given:
         fleet[f] = cat("pads", f)
     return traces, fleet
-
-
-# ------------------------------------------------------------- the whole fleet at once
-def run_fleet(pred: Predictor, log: pd.DataFrame) -> pd.DataFrame:
-    """Every pad of ``log`` through ``pred`` in one go (all at once when it has a fleet of its
-    own, :func:`~brake_env.prognostics.fleet.predict_runs`): one row per event, pads in order
-    of first appearance, with ``run_id``, ``event`` and the estimate's columns: the
-    reference the units' :func:`merge` agrees with to rounding."""
-    runs = list(iter_runs(log))
-    ests = predict_runs(pred, [ev for _, ev in runs])
-    sizes = [len(ev) for _, ev in runs]
-    names = pd.Index([r for r, _ in runs])
-    codes = np.repeat(np.arange(len(runs)), sizes)
-    frame = pd.DataFrame(
-        {
-            "run_id": pd.Categorical.from_codes(codes, names),
-            "event": np.concatenate([ev.event for _, ev in runs]),
-        }
-    )
-    for f in ESTIMATE_FIELDS:
-        if all(getattr(e, f) is not None for e in ests):  # fields the predictor gives
-            frame[f] = np.concatenate([getattr(e, f) for e in ests])
-    return frame
-
-
-def fleet_table(traces: pd.DataFrame, missing: dict[str, list[str]]) -> pd.DataFrame:
-    """One row per pad, at its last logged event, sorted by RUL (most urgent first)."""
-    g = traces.groupby("run_id", observed=True, sort=False)
-    last = g.tail(1).set_index("run_id")
-    rows = pd.DataFrame(
-        {
-            "run_id": last.index.astype(str),
-            "events_logged": g.size().to_numpy(),
-            "first_event": g["event"].first().to_numpy(),
-            "events_since_install": last["event"].to_numpy() + 1,
-        }
-    )
-    for f in ESTIMATE_FIELDS:
-        if f in last:
-            rows[f] = last[f].to_numpy()
-    return sort_table(rows, missing)
 
 
 def sort_table(rows: pd.DataFrame, missing: dict[str, list[str]]) -> pd.DataFrame:

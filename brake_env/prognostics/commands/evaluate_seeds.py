@@ -27,10 +27,14 @@ from brake_env.data.schema import read_event_log
 from brake_env.model.atlas import Atlas
 from brake_env.output import sha256_file, write_json, write_text
 from brake_env.prognostics import seeds as sd
-from brake_env.prognostics.cli import _check_atlas, simulation_options, write_evaluation
-from brake_env.prognostics.fleet_units import say_resumed
+from brake_env.prognostics.commands.outputs import (
+    check_data_atlas,
+    simulation_options,
+    write_evaluation,
+)
 from brake_env.prognostics.persist import package_version
-from brake_env.runner import Unit, UnitsFailed, UnitStore
+from brake_env.runner import Unit, UnitsFailed
+from brake_env.units import UnitStore, open_store
 
 RESULT_FORMAT = 1  # layout of a seed's result; a store of another layout is refused
 
@@ -64,7 +68,7 @@ def cmd_evaluate_seeds(args: argparse.Namespace) -> dict[str, Any]:
     logs, data, spec = _data(args)
     atlas = load_atlas(args)
     if args.data:
-        _check_atlas(Path(args.data), atlas.content_hash)
+        check_data_atlas(Path(args.data), atlas.content_hash)
     plan = sd.SeedPlan(tuple(args.predictors), args.batch_events, args.mlp_epochs, spec)
     settings = {
         "command": "evaluate --seeds",
@@ -76,7 +80,8 @@ def cmd_evaluate_seeds(args: argparse.Namespace) -> dict[str, Any]:
         "package_version": package_version(),
         "result_format": RESULT_FORMAT,
     }
-    store = UnitStore(out / "units", settings)  # the seeds are the units' keys, not settings
+    # the seeds are the units' keys, not settings
+    store = open_store(out / "units", settings, [f"seed-{s}" for s in seeds], "evaluate")
     results = _run_seeds(args, atlas, logs, seeds, plan, store)
     for s in seeds:
         _write_seed(results[s], out / f"seed-{s}", atlas, args, s)
@@ -121,7 +126,6 @@ def _run_seeds(
     ):
         shared = (runner.share(atlas), None if logs is None else runner.share(logs))
         units = [Unit(f"seed-{s}", sd.evaluate_seed, (*shared, s, plan)) for s in seeds]
-        say_resumed("evaluate", units, store)
         try:
             done = runner.run(units, store, lambda _k, _r: bar.update())
         except UnitsFailed as e:
@@ -143,7 +147,9 @@ def _write_seed(
         data["simulated"] = dataclasses.asdict(dataset_spec(args))
     data["seed"] = seed
     timing = result["timing_s"]
-    write_evaluation(ev, out, saved, atlas, data, {}, timing, figures=args.seed_figures)
+    write_evaluation(
+        ev, out, saved, atlas, data, skipped={}, timing=timing, figures=args.seed_figures
+    )
 
 
 def _markdown(doc: dict[str, Any]) -> str:

@@ -106,7 +106,7 @@ def test_simulated_seeds_differ_and_a_rerun_adds_only_new_seeds(
         (evaluate(atlas, out, "--seeds", "2", "0", "1", *SIMULATE) / "seeds.json").read_text()
     )
     assert calls == [2] and again["seeds"] == [2, 0, 1]
-    assert "evaluate: resuming: 2 of 3 units read from" in capsys.readouterr().err
+    assert "evaluate: resuming: 2 of 3 units already done" in capsys.readouterr().err
     assert rmse(again, "data", "ood")[1:] == rmse(first, "data", "ood")
     # Other settings on this store (fewer MLP epochs) are refused, naming what changed.
     argv = ["evaluate", "--out", str(out), "--atlas", str(atlas), "--seeds", "0", *SIMULATE]

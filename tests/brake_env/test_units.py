@@ -1,0 +1,170 @@
+"""The unit store's guards: a damaged unit file is named (file and unit) when the store
+opens and its unit redone; a second run into the same store refuses while the first runs,
+naming it; a lock left by a dead run is taken over, saying so."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from brake_env.runner import Runner, Unit
+from brake_env.units import LOCK, StoreLocked, UnitStore, open_store
+
+
+def draw(seed: int) -> dict:
+    return {"x": np.random.default_rng(seed).normal(size=5), "seed": seed}
+
+
+def units() -> list[Unit]:
+    return [Unit(f"seed={s}", draw, (s,)) for s in range(3)]
+
+
+KEYS = [u.key for u in units()]
+
+
+def unit_file(store: UnitStore, key: str, suffix: str = ".json") -> Path:
+    return store._stem(key).with_suffix(suffix)
+
+
+def test_a_cut_unit_file_is_named_set_aside_and_redone(tmp_path, capsys):
+    with open_store(tmp_path, {"seed": 0}, KEYS, "test") as store:
+        reference = Runner(0).run(units(), store)
+        cut = unit_file(store, "seed=1")
+    cut.write_bytes(cut.read_bytes()[:40])  # a unit JSON cut to 40 bytes
+    with open_store(tmp_path, {"seed": 0}, KEYS, "test") as store:
+        err = capsys.readouterr().err
+        assert f"test: unit seed=1: {cut} is damaged (not whole JSON" in err
+        assert "will redo the unit" in err
+        assert "test: resuming: 2 of 3 units already done" in err
+        assert "seed=1" not in store and (tmp_path / "damaged" / cut.name).is_file()
+        ran: list[str] = []
+        again = Runner(0).run(units(), store, lambda k, _: ran.append(k))
+    assert sorted(ran) == KEYS  # each reported; only seed=1 was computed again
+    for k in KEYS:
+        np.testing.assert_array_equal(again[k]["x"], reference[k]["x"])
+
+
+def test_a_cut_file_without_its_key_is_named_by_the_run_keys(tmp_path, capsys):
+    with open_store(tmp_path, {}, KEYS, "test") as store:
+        Runner(0).run(units(), store)
+        cut = unit_file(store, "seed=2")
+    cut.write_bytes(cut.read_bytes()[:5])  # too short to hold its key
+    open_store(tmp_path, {}, KEYS, "test").close()
+    assert f"unit seed=2: {cut} is damaged" in capsys.readouterr().err
+
+
+def test_a_damaged_npz_is_named_at_opening_and_redone(tmp_path, capsys):
+    with open_store(tmp_path, {}, KEYS, "test") as store:
+        reference = Runner(0).run(units(), store)
+        npz = unit_file(store, "seed=0", ".npz")
+    blob = bytearray(npz.read_bytes())
+    blob[len(blob) // 2] ^= 0xFF
+    npz.write_bytes(bytes(blob))
+    with open_store(tmp_path, {}, KEYS, "test") as store:
+        err = capsys.readouterr().err
+        assert f"unit seed=0: {unit_file(store, 'seed=0')} is damaged (its arrays" in err
+        assert "seed=0" not in store and "seed=1" in store
+        again = Runner(0).run(units(), store)
+    np.testing.assert_array_equal(again["seed=0"]["x"], reference["seed=0"]["x"])
+
+
+def test_a_missing_npz_and_a_misnamed_unit_are_damage_too(tmp_path, capsys):
+    with open_store(tmp_path, {}, KEYS, "test") as store:
+        Runner(0).run(units(), store)
+        unit_file(store, "seed=0", ".npz").unlink()
+        doc = json.loads(unit_file(store, "seed=1").read_text())
+        unit_file(store, "seed=2").write_text(json.dumps(doc))  # seed=1's under seed=2's name
+    with open_store(tmp_path, {}, KEYS, "test") as store:
+        err = capsys.readouterr().err
+        assert "unit seed=0:" in err and "are missing" in err
+        assert "holds unit 'seed=1' under another unit's name" in err
+        assert store.keys() == ["seed=1"]
+
+
+def test_a_damaged_settings_file_says_what_to_delete(tmp_path):
+    UnitStore(tmp_path, {"seed": 0}).close()
+    (tmp_path / "settings.json").write_text('{"seed": ')
+    with pytest.raises(ValueError, match=f"delete {tmp_path} to start the run afresh"):
+        UnitStore(tmp_path, {"seed": 0})
+
+
+HOLDER = textwrap.dedent(
+    """
+    import sys, time
+    from brake_env.units import open_store
+    store = open_store(sys.argv[1], {{"seed": 0}}, [], "{command}")
+    print("locked", flush=True)
+    {then}
+    """
+)
+
+
+def holder(directory: Path, command: str, then: str) -> subprocess.Popen[str]:
+    """A process that opens the store in ``directory`` and then runs ``then``."""
+    code = HOLDER.format(command=command, then=then)
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)}
+    proc = subprocess.Popen(
+        [sys.executable, "-c", code, str(directory)], stdout=subprocess.PIPE, text=True, env=env
+    )
+    assert proc.stdout is not None and proc.stdout.readline().strip() == "locked"
+    return proc
+
+
+def test_a_second_process_refuses_a_store_in_use_naming_the_first(tmp_path):
+    first = holder(tmp_path, "first", "time.sleep(60)")
+    try:
+        second = subprocess.run(
+            [sys.executable, "-c", HOLDER.format(command="second", then=""), str(tmp_path)],
+            capture_output=True,
+            text=True,
+            env={**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)},
+            timeout=60,
+        )
+        assert second.returncode != 0 and "locked" not in second.stdout
+        assert "StoreLocked" in second.stderr
+        assert f"{tmp_path} is in use by another run (first, pid {first.pid} on" in second.stderr
+        # and in this process too, with the start time
+        with pytest.raises(StoreLocked, match=rf"pid {first.pid} on .*, started 20\d\d-"):
+            UnitStore(tmp_path, {"seed": 0})
+    finally:
+        first.kill()
+        first.wait()
+
+
+def test_a_finished_run_releases_the_store(tmp_path, capsys):
+    first = holder(tmp_path, "first", "store.close()")
+    assert first.wait(timeout=60) == 0
+    assert (tmp_path / LOCK).read_text() == ""  # released on purpose: nothing to take over
+    UnitStore(tmp_path, {"seed": 0}, command="next").close()
+    assert "taking over" not in capsys.readouterr().err
+
+
+def test_the_lock_of_a_killed_run_is_taken_over_saying_so(tmp_path, capsys):
+    first = holder(tmp_path, "first", "time.sleep(60)")
+    first.send_signal(signal.SIGKILL)
+    first.wait()
+    time.sleep(0.05)
+    with UnitStore(tmp_path, {"seed": 0}, command="next"):
+        err = capsys.readouterr().err
+        assert f"next: taking over the lock of {tmp_path.resolve()} left by a run" in err
+        assert f"first, pid {first.pid}" in err
+        held = json.loads((tmp_path / LOCK).read_text())
+        assert held["pid"] == os.getpid() and held["command"] == "next"
+
+
+def test_one_process_may_open_its_store_again(tmp_path):
+    with UnitStore(tmp_path, {}) as a:
+        a.save("k", 1)
+        with UnitStore(tmp_path, {}) as b:  # e.g. to read it back
+            assert b.load("k") == 1
+        assert json.loads((tmp_path / LOCK).read_text())["pid"] == os.getpid()  # still held
+    assert (tmp_path / LOCK).read_text() == ""
