@@ -223,7 +223,5 @@ def _cause(e: BaseException) -> BaseException:
 
 def _import_paths() -> list[str]:
     """Where this package and its siblings are imported from (the project's root)."""
-    import brake_env
-
-    root = Path(brake_env.__file__).resolve().parent.parent
+    root = Path(__file__).resolve().parent.parent  # brake_env/runner.py -> the root
     return [str(root), *os.environ.get("PYTHONPATH", "").split(os.pathsep)][:8]

@@ -1,106 +1,216 @@
-"""Import circles and imports inside functions, for the modules under a folder.
+"""The project's import graph, read from the source (no import runs): which module imports
+which, at module level or inside a function (``TYPE_CHECKING`` blocks left out: they never
+run); for tests/test_architecture.py and the before/after counts of README "Architecture".
 
-    .venv/bin/python scripts/import_graph.py . brake_env/prognostics
+    .venv/bin/python scripts/import_graph.py [ROOT] [PREFIX]
 
-Circles are the strongly connected components of more than one module in the graph of
-imports between the folder's modules, imports inside functions and under
-``TYPE_CHECKING`` included. Each import inside a function is listed with its line (its
-comment says why).
+prints the circles and each import inside a function by its reason, for the modules whose
+name starts with PREFIX (default: all five packages) of the checkout at ROOT (default: here).
 """
 
 from __future__ import annotations
 
-import argparse
 import ast
+from dataclasses import dataclass, field
 from pathlib import Path
 
+ROOT = Path(__file__).resolve().parents[1]
+PACKAGES = ("brake_env", "twin", "baselines", "agents", "sim2real")
+# Libraries whose import takes long or pulls a large runtime: importing them inside the
+# function that needs them keeps `brakewear --help` and light commands fast.
+HEAVY = frozenset(
+    {"torch", "stable_baselines3", "sb3_contrib", "ray", "matplotlib", "scipy", "pyarrow",
+     "optuna", "pettingzoo", "tensorboard", "progpy", "rl_zoo3", "supersuit", "torchrl"}
+)  # fmt: skip
 
-def modules(root: Path, folder: str) -> dict[str, Path]:
-    """Dotted module name -> file, for every module under ``root / folder``."""
-    out = {}
-    for p in sorted((root / folder).rglob("*.py")):
-        out[".".join(p.relative_to(root).with_suffix("").parts).removesuffix(".__init__")] = p
+
+@dataclass
+class Module:
+    name: str
+    path: Path
+    top: set[str] = field(default_factory=set)  # project modules imported at module level
+    inner: set[str] = field(default_factory=set)  # project modules imported inside functions
+    heavy_top: set[str] = field(default_factory=set)  # heavy libraries at module level
+
+
+def _module_name(path: Path, root: Path = ROOT) -> str:
+    parts = list(path.relative_to(root).with_suffix("").parts)
+    if parts[-1] == "__init__":
+        parts.pop()
+    return ".".join(parts)
+
+
+def _type_checking(node: ast.If) -> bool:
+    t = node.test
+    return (isinstance(t, ast.Name) and t.id == "TYPE_CHECKING") or (
+        isinstance(t, ast.Attribute) and t.attr == "TYPE_CHECKING"
+    )
+
+
+def _targets(node: ast.Import | ast.ImportFrom, known: set[str], here: str) -> set[str]:
+    """The project modules an import statement loads (a package's submodules named in a
+    ``from pkg import sub`` included)."""
+    if isinstance(node, ast.Import):
+        names = [a.name for a in node.names]
+    else:
+        base = node.module or ""
+        if node.level:
+            pkg = here.split(".")[: -node.level] if node.level else []
+            base = ".".join([*pkg, base] if base else pkg)
+        names = [base] + [f"{base}.{a.name}" for a in node.names]
+    out = set()
+    for n in names:
+        while n and n not in known:
+            n = n.rpartition(".")[0]
+        if n:
+            out.add(n)
     return out
 
 
-def imported(node: ast.AST, module: str) -> list[str]:
-    """What ``node`` imports: the module and each name as a possible submodule."""
-    if isinstance(node, ast.Import):
-        return [a.name for a in node.names]
-    if isinstance(node, ast.ImportFrom) and node.module:
-        base = node.module
-        if node.level:
-            base = ".".join([*module.split(".")[: -node.level], node.module])
-        return [base, *(f"{base}.{a.name}" for a in node.names)]
-    return []
+def _walk(body: list[ast.stmt], inside: bool, found: list[tuple[ast.AST, bool]]) -> None:
+    for node in body:
+        if isinstance(node, ast.If) and _type_checking(node):
+            continue  # never executed
+        if isinstance(node, ast.Import | ast.ImportFrom):
+            found.append((node, inside))
+        nested = isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef | ast.Lambda)
+        for child in ast.iter_child_nodes(node):
+            if isinstance(child, ast.stmt):
+                _walk([child], inside or nested, found)
+            elif hasattr(child, "body") and isinstance(child.body, list):
+                _walk(child.body, inside or nested, found)  # type: ignore[attr-defined]
 
 
-def graph(mods: dict[str, Path]) -> tuple[dict[str, set[str]], list[tuple[str, str]]]:
-    """(module -> the folder's modules it imports, [(module, line) of each import inside a
-    function])."""
-    edges: dict[str, set[str]] = {m: set() for m in mods}
-    inside = []
-    for m, path in mods.items():
-        text = path.read_text()
-        tree, lines = ast.parse(text), text.splitlines()
-        funcs = [n for n in ast.walk(tree) if isinstance(n, ast.FunctionDef | ast.AsyncFunctionDef)]
-        in_func = {id(x) for f in funcs for x in ast.walk(f) if x is not f}
-        for node in ast.walk(tree):
-            names = imported(node, m)
-            edges[m] |= {t for t in names if t in mods and t != m}
-            if names and id(node) in in_func:
-                inside.append((m, lines[node.lineno - 1].strip()))  # type: ignore[attr-defined]
-    return edges, inside
+def graph(root: Path = ROOT) -> dict[str, Module]:
+    """Every module of the project's packages and what it imports."""
+    paths = [p for pkg in PACKAGES for p in sorted((root / pkg).rglob("*.py"))]
+    mods = {_module_name(p, root): Module(_module_name(p, root), p) for p in paths}
+    known = set(mods)
+    for m in mods.values():
+        found: list[tuple[ast.AST, bool]] = []
+        _walk(ast.parse(m.path.read_text()).body, False, found)
+        for node, inside in found:
+            assert isinstance(node, ast.Import | ast.ImportFrom)
+            targets = _targets(node, known, m.name) - {m.name}
+            (m.inner if inside else m.top).update(targets)
+            if not inside:
+                libs = (
+                    {a.name.split(".")[0] for a in node.names}
+                    if isinstance(node, ast.Import)
+                    else {(node.module or "").split(".")[0]}
+                    if not node.level
+                    else set()
+                )
+                m.heavy_top |= libs & HEAVY
+    return mods
 
 
-def circles(edges: dict[str, set[str]]) -> list[list[str]]:
-    """Strongly connected components of more than one module (Tarjan, iterative)."""
+def cycles(mods: dict[str, Module], with_inner: bool = True) -> list[list[str]]:
+    """The strongly connected components of more than one module (Tarjan), each sorted."""
+    edges = {n: (m.top | m.inner) if with_inner else set(m.top) for n, m in mods.items()}
     index: dict[str, int] = {}
     low: dict[str, int] = {}
     stack: list[str] = []
-    out = []
-    for start in edges:
-        if start in index:
-            continue
-        work = [(start, iter(sorted(edges[start])))]
-        index[start] = low[start] = len(index)
-        stack.append(start)
-        while work:
-            v, children = work[-1]
-            w = next(children, None)
-            if w is None:
-                work.pop()
-                if work:
-                    low[work[-1][0]] = min(low[work[-1][0]], low[v])
-                if low[v] == index[v]:
-                    comp = stack[stack.index(v) :]
-                    del stack[stack.index(v) :]
-                    if len(comp) > 1:
-                        out.append(sorted(comp))
-            elif w not in index:
-                index[w] = low[w] = len(index)
-                stack.append(w)
-                work.append((w, iter(sorted(edges[w]))))
-            elif w in stack:
+    on: set[str] = set()
+    out: list[list[str]] = []
+
+    def visit(v: str) -> None:
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        on.add(v)
+        for w in sorted(edges[v]):
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on:
                 low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            comp = []
+            while True:
+                w = stack.pop()
+                on.discard(w)
+                comp.append(w)
+                if w == v:
+                    break
+            if len(comp) > 1:
+                out.append(sorted(comp))
+
+    for v in sorted(edges):
+        if v not in index:
+            visit(v)
     return out
 
 
-def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("root", type=Path, help="the project's root (imports are named from it)")
-    ap.add_argument("folder", help="the folder to count, relative to the root")
-    args = ap.parse_args()
-    mods = modules(args.root, args.folder)
-    edges, inside = graph(mods)
-    found = circles(edges)
-    print(f"modules: {len(mods)}; import circles: {len(found)}")
-    for c in found:
-        print("  circle: " + ", ".join(c))
-    print(f"imports inside functions: {len(inside)}")
-    for m, line in inside:
-        print(f"  {m}: {line}")
+def pulls_heavy(mods: dict[str, Module], name: str) -> bool:
+    """``name`` imports a heavy library at module level, itself or through the project
+    modules it imports at module level."""
+    seen, todo = set(), [name]
+    while todo:
+        n = todo.pop()
+        if n in seen:
+            continue
+        seen.add(n)
+        if mods[n].heavy_top:
+            return True
+        todo.extend(mods[n].top)
+    return False
+
+
+def reaches(mods: dict[str, Module], start: str, goal: str) -> bool:
+    """``start`` imports ``goal``, directly or through other modules (any import)."""
+    seen, todo = set(), [start]
+    while todo:
+        n = todo.pop()
+        if n == goal:
+            return True
+        if n not in seen:
+            seen.add(n)
+            todo.extend(mods[n].top | mods[n].inner)
+    return False
+
+
+def inner_imports_by_reason(mods: dict[str, Module]) -> dict[str, list[str]]:
+    """Each project import placed inside a function, by why it is there: ``circle`` (at
+    module level it would close an import circle: the rooms are wrong), ``heavy`` (the
+    module it loads pulls a heavy library), ``command`` (a command module loading a
+    command's implementation only when that command runs) or ``none``."""
+    out: dict[str, list[str]] = {"circle": [], "heavy": [], "command": [], "none": []}
+    for m in mods.values():
+        for t in sorted(m.inner):
+            if reaches(mods, t, m.name):
+                reason = "circle"
+            elif pulls_heavy(mods, t):
+                reason = "heavy"
+            elif _is_command(m.name) and _is_command(t):
+                reason = "command"
+            else:
+                reason = "none"
+            out[reason].append(f"{m.name} -> {t}")
+    return out
+
+
+def _is_command(name: str) -> bool:
+    parts = name.split(".")
+    return "commands" in parts or "cli" in parts or parts[-1].endswith("_cli")
+
+
+def main(argv: list[str]) -> None:
+    root = Path(argv[0]).resolve() if argv else ROOT
+    prefix = argv[1].replace("/", ".") if len(argv) > 1 else ""
+    mods = graph(root)
+    mine = {n for n in mods if n.startswith(prefix)}
+    circles = [c for c in cycles(mods) if set(c) & mine]
+    print(f"modules: {len(mine)}; import circles: {len(circles)}")
+    for c in circles:
+        print("  ", " ".join(c))
+    for reason, items in inner_imports_by_reason(mods).items():
+        items = [i for i in items if i.split(" -> ")[0] in mine]
+        print(f"imports inside functions, {reason}: {len(items)}")
+        for i in items:
+            print("   ", i)
 
 
 if __name__ == "__main__":
-    main()
+    import sys
+
+    main(sys.argv[1:])

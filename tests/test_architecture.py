@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.import_graph import cycles, graph, inner_imports_by_reason
+from scripts.import_graph import cycles, graph, inner_imports_by_reason
 
 ROOT = Path(__file__).resolve().parents[1]
 DOWNSTREAM = {"twin", "baselines", "agents", "sim2real"}

@@ -58,12 +58,12 @@ def run_compare(
         progress: ``progress(label, total)`` returns a callback advanced by the units done.
         fitted: Already fitted predictors by name (fitted here when missing).
         hyperparams: Agent hyperparameters by predictor (default: the predictor's file).
-        runner: Where the pads are simulated and the agents trained (default: in this
-            process, in order; the same figures anywhere).
+        runner: Where the pads and agents run (default: in this process; the same
+            figures anywhere).
         resume: Keep finished units in ``out_dir/units``, reuse those already there.
 
     Raises:
-        ValueError: ``out_dir/units`` holds the units of a run with other settings.
+        ValueError: ``out_dir/units`` holds the units of other settings, or is in use.
     """
     t_start = time.perf_counter()
     study = CompareUnits(config, seed, Path(out_dir), hyperparams)

@@ -8,16 +8,14 @@ import argparse
 import sys
 from collections.abc import Callable
 from importlib.metadata import entry_points
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from tqdm import tqdm
 
 from brake_env.model.atlas import Atlas, AtlasSpec, cached_atlas
 from brake_env.model.params import BrakeModel
 from brake_env.model.regime import WearRegime
-
-if TYPE_CHECKING:
-    from brake_env.runner import Runner
+from brake_env.runner import Runner, ray_available
 
 
 def int_at_least(lo: int) -> Callable[[str], int]:
@@ -81,8 +79,6 @@ def add_runner_args(sp: argparse.ArgumentParser, workers: int = 0) -> None:
 def make_runner(args: argparse.Namespace) -> Runner:
     """The runner ``--workers`` and ``--ray`` ask for. Workers without Ray installed run in
     this process, with a note (the same results, one core)."""
-    from brake_env.runner import Runner, ray_available
-
     workers = int(getattr(args, "workers", 0) or 0)
     address = getattr(args, "ray", None)
     if workers and not address and not ray_available():
