@@ -75,7 +75,6 @@ def run_compare(
     t0 = time.perf_counter()
     tuning = tune(config, tune_set, id_life(config, atlas))
     tune_s = time.perf_counter() - t0
-    skipped = {**runs.skipped, **_untuned(config, tuning)}
     t0 = time.perf_counter()
     sensitivity = {
         r: rank_policies(config, eval_set, tuning, runs.outcomes, r, seed) for r in config.ratios()
@@ -91,7 +90,7 @@ def run_compare(
         eval_pads=_count(eval_set),
         sensitivity=sensitivity,
         tuning=tuning,
-        skipped=skipped,
+        skipped={**runs.skipped, **_untuned(config, tuning)},
         timing=timing,
         learning_curves=runs.curves,
     )
