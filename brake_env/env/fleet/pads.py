@@ -40,8 +40,9 @@ class ShiftEvents(NamedTuple):
     ``measured`` (channels, vehicles, events) in ``SENSOR_CHANNELS`` order and
     ``volume_frac`` (vehicles, events, at the start of each event) are valid where
     ``valid`` is; ``first_event`` is each pad's age before the shift, so its events are
-    ``first_event + 0, 1, ...``; ``n_done`` counts each vehicle's events and ``failed``
-    marks the pads that reached their end of life with events still to brake.
+    ``first_event + 0, 1, ...``; ``n_done`` counts each vehicle's events, ``failed``
+    marks the pads that reached their end of life with events still to brake, and
+    ``wear_coeff`` is the K of the pads that braked them.
     """
 
     measured: F64 | None
@@ -50,6 +51,7 @@ class ShiftEvents(NamedTuple):
     first_event: I64
     n_done: I64
     failed: NDArray[np.bool_]
+    wear_coeff: F64
 
 
 class FleetPads:
@@ -150,7 +152,7 @@ class FleetPads:
             )
             active = (done_n < n_events) & ~self.done
         failed = (done_n < n_events) & self.done
-        return ShiftEvents(out_m, out_v, valid, first, done_n, failed)
+        return ShiftEvents(out_m, out_v, valid, first, done_n, failed, self.k.copy())
 
     def _round(
         self,
@@ -171,19 +173,31 @@ class FleetPads:
         x = self.low[route][:, None, :] + self.span[route][:, None, :] * u
         sp, mass, th = x[..., 0], x[..., 1], x[..., 2]
         fields = RESPONSE if out_m is not None else RESPONSE[2:]
-        resp = self.atlas.query(sp, mass, th, layer=self.layer[rows, None], fields=fields)
-        a = self.k[rows, None] * resp.pop("wear_per_k_m3") / self.pad_v
-        cum = np.cumsum(np.concatenate([self.acc[rows, None], a], axis=1), axis=1)[:, 1:]
+        look = self.atlas.lookup
+        cell, frac = look.locate(sp, mass, th)
+        g = look.interp_array(fields, self.layer[rows, None], cell, frac)
+        a = self.k[rows, None] * g[..., -1] / self.pad_v
+        # The simulator's sum, in event order from the wear accumulated in the layer.
+        a[:, 0] += self.acc[rows]
+        cum = np.cumsum(a, axis=1)
         after = self.start[rows, None] - cum
         crossed = (after <= self.edges[self.layer[rows]][:, None]) & (col < need[:, None])
         hit = crossed.any(axis=1)
         n_keep = np.where(hit, np.argmax(crossed, axis=1) + 1, need)
-        before = np.concatenate([self.vol[rows, None], after[:, :-1]], axis=1)
-        ri, j = np.nonzero(col < n_keep[:, None])
-        v, c = rows[ri], done_n[rows][ri] + j
-        out_v[v, c], valid[v, c] = before[ri, j], True
-        if out_m is not None:
-            self._measure(out_m, v, c, idx[ri, j], sp[ri, j], mass[ri, j], th[ri, j], resp, ri, j)
+        before = np.empty_like(after)
+        before[:, 0], before[:, 1:] = self.vol[rows], after[:, :-1]
+        at = done_n[rows]
+        if np.all(n_keep == m) and np.all(at == at[0]):  # one block: no scatter
+            sl = (rows, slice(int(at[0]), int(at[0]) + m))
+            out_v[sl], valid[sl] = before, True
+            if out_m is not None:
+                out_m[(slice(None), *sl)] = self._measure(rows, idx, sp, mass, th, g)
+        else:
+            ri, j = np.nonzero(col < n_keep[:, None])
+            v, c = rows[ri], at[ri] + j
+            out_v[v, c], valid[v, c] = before[ri, j], True
+            if out_m is not None:
+                out_m[:, v, c] = self._measure(rows, idx, sp, mass, th, g)[:, ri, j]
         last = n_keep - 1
         r_all = np.arange(rows.size)
         self.vol[rows], self.acc[rows] = after[r_all, last], cum[r_all, last]
@@ -192,34 +206,21 @@ class FleetPads:
         done_n[rows] += n_keep
         self._next_layer(rows[hit])
 
-    def _measure(
-        self,
-        out: F64,
-        v: I64,
-        c: I64,
-        col: I64,
-        sp: F64,
-        mass: F64,
-        th: F64,
-        resp: dict[str, F64],
-        ri: I64,
-        j: I64,
-    ) -> None:
-        """Sensor readings of the kept events: true values plus each channel's next draws
-        (the arithmetic of :class:`~brake_env.model.streams.NoiseStreams`)."""
-        truth = (
-            sp * 3.6,
-            mass,
-            th,
-            0.5 * mass * sp**2,
-            resp["temp_mean_c"][ri, j],
-            resp["stop_dist_m"][ri, j],
-        )
+    def _measure(self, rows: I64, idx: I64, sp: F64, mass: F64, th: F64, g: F64) -> F64:
+        """Sensor readings (channels, R, m) of a block: true values plus each channel's
+        next draws (the arithmetic of :class:`~brake_env.model.streams.NoiseStreams`)."""
+        truth = (sp * 3.6, mass, th, 0.5 * mass * sp**2, g[..., 0], g[..., 1])
+        out = np.empty((N_CH, *sp.shape))
         for ch, x in enumerate(truth):
             sigma = self.sigmas[ch]
-            out[ch, v, c] = x if sigma == 0 else self._z[v, ch, col] * sigma + x
+            if sigma == 0:
+                out[ch] = x
+            else:
+                np.multiply(self._z[rows[:, None], ch, idx], sigma, out=out[ch])
+                out[ch] += x
         np.maximum(out[3], 0.0, out=out[3])
         np.maximum(out[5], 0.0, out=out[5])
+        return out
 
     def _next_layer(self, rows: I64) -> None:
         """Pads that crossed their layer's lower edge: the layer whose band holds the volume

@@ -123,8 +123,9 @@ class Workshop:
         for v in np.flatnonzero(drives & (down | window)):
             why = "window" if window else "down"
             plan.refused.append((int(v), ACTIONS[int(duty[v])], why))
-        ok = drives & ~down & ~window
-        plan.route[ok] = duty[ok]
+        if not window:  # (a Python bool: ~True is -2, not False)
+            ok = drives & ~down
+            plan.route[ok] = duty[ok]
         return plan
 
     def _fit(self, plan: Plan, v: int, into: B) -> bool:
