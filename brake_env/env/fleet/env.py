@@ -208,13 +208,14 @@ class BrakeWearFleetEnv(gym.Env[NDArray[np.float32], NDArray[np.int64]]):
         shop.break_down(broke)
         shop.order(quantity)
         shop.end_shift(ev.failed | broke)
+        held = shop.stock  # spares held through the shift (holding cost)
         self.shift += 1
         arrived = shop.receive()
         waited = shop.fit_waiting()
         for v in np.flatnonzero(waited):
             self._install(int(v))
         counts = self._counts(plan, ev, fitted | waited, broke, quantity, arrived, window)
-        counts["downtime"] = down_failed
+        counts["downtime"], counts["stock"] = down_failed, held
         costs = self._costs(counts)
         self._events = ev
         info = self._info(costs, counts, ev, plan, broke)

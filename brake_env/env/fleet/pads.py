@@ -114,21 +114,24 @@ class FleetPads:
 
     # ------------------------------------------------------------------ streams
     def _ensure(self, need: I64) -> None:
-        """Each vehicle's buffers hold its next ``need`` events (refilled where short)."""
+        """Each vehicle's buffers hold its next ``need`` events (refilled where short, by a
+        quarter of the capacity at least: a new pad's buffer starts empty, so a pad
+        replaced early wastes few draws)."""
         short = np.flatnonzero(self._cur + need > self._have)
-        for v in short:  # amortised: a vehicle refills once every capacity / shift shifts
+        for v in short:  # amortised: a vehicle refills every few shifts
             cur, have = int(self._cur[v]), int(self._have[v])
             left = have - cur
+            upto = min(self.capacity, left + max(int(need[v]), self.capacity // 4))
             self._u[v, :left] = self._u[v, cur:have]
             self._z[v, :, :left] = self._z[v, :, cur:have]
             rng = self._cond[v]
             if rng is None:
                 raise RuntimeError(f"FleetPads: vehicle {v} has no pad installed")
-            rng.random(out=self._u[v, left:])
+            rng.random(out=self._u[v, left:upto])
             for c, g in enumerate(self._noise[v]):
                 if g is not None:
-                    g.standard_normal(out=self._z[v, c, left:])
-            self._cur[v], self._have[v] = 0, self.capacity
+                    g.standard_normal(out=self._z[v, c, left:upto])
+            self._cur[v], self._have[v] = 0, upto
 
     # ------------------------------------------------------------------ a shift
     def advance(self, n_events: I64, route: I64, measure: bool = True) -> ShiftEvents:
