@@ -114,7 +114,7 @@ def test_pickle_round_trip_continues_identically(make) -> None:
 def test_masks_block_duties_in_windows_and_while_down(make) -> None:
     env = make(window_period=4, breakdown_rate=0.0)
     env.reset(seed=0)
-    for s in range(3):
+    for _ in range(3):
         m = env.action_masks().reshape(-1)[: 4 * 3].reshape(3, 4)
         assert m[:, [HOT, MILD]].all()  # working shifts
         env.step(act(HOT, MILD, PARK))
