@@ -2,10 +2,11 @@
 
 One row per vehicle: its pad's true volume as a bar down to end of life (green, amber
 under 40% of its usable life, red under 15%), its duty this shift (H hot, M mild, P park,
-S in the shop), and the RUL: a fleet wrapper's estimate when there is one
-(``info["rul_estimate"]``), else nothing. A header gives the shift, the shifts to the next
-window, the free bays, the stock and the pads on order. The bitmap font and drawing
-helpers are BrakeWear-v0's (:mod:`brake_env.env.render`).
+S in the shop), and the RUL: a fleet wrapper's estimate in events when there is one
+(``info["rul_estimate"]``), else the expected shifts left on the hot route from the true
+volume and K (the closed-form wear clock of the route). A header gives the shift, the
+shifts to the next window, the free bays, the stock and the pads on order. The bitmap font
+and drawing helpers are BrakeWear-v0's (:mod:`brake_env.env.render`).
 """
 
 from __future__ import annotations
@@ -15,6 +16,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
+from brake_env.env.fleet.routes import HOT, route_wear_model
 from brake_env.env.render import (
     BACKGROUND,
     BAD,
@@ -54,6 +56,7 @@ class FleetFrame:
         self.env = env
         self.height = TOP + ROW * env.config.n_vehicles + 8
         self.info: dict[str, Any] = {}
+        self._hot = route_wear_model(env.atlas, HOT)
 
     def start(self) -> None:
         self.info = {}
@@ -74,12 +77,23 @@ class FleetFrame:
         end = env.atlas.failure_volume
         letters = duty_letters(self.info, shop.down) if self.info else ["P"] * c.n_vehicles
         est = self.info.get("rul_estimate", {}).get("rul_mean")
+        if est is None:  # expected hot-route shifts left, from the truth
+            vol = np.maximum(t["volume_frac"], end)
+            est = self._hot.rul(vol, t["wear_coeff"]) / c.events_per_shift
+        unit = "" if "rul_estimate" in self.info else " SH"
         for v in range(c.n_vehicles):
-            self._row(img, v, float(t["volume_frac"][v]), end, letters[v], est)
+            self._row(img, v, float(t["volume_frac"][v]), end, letters[v], est, unit)
         return img
 
     def _row(
-        self, img: NDArray[np.uint8], v: int, vol: float, end: float, duty: str, est: Any
+        self,
+        img: NDArray[np.uint8],
+        v: int,
+        vol: float,
+        end: float,
+        duty: str,
+        est: Any,
+        unit: str,
     ) -> None:
         y = TOP + ROW * v
         draw_text(img, 4, y + 2, f"{v:>2d}", DIM)
@@ -90,7 +104,8 @@ class FleetFrame:
         fill(img, x0 + 1, y + 2, x0 + 1 + int((x1 - x0 - 2) * share), y + ROW - 4, color)
         draw_text(img, 192, y + 2, duty, _DUTY_COLOR[duty])
         if est is not None and np.isfinite(est[v]):
-            draw_text(img, 208, y + 2, f"RUL {events_text(float(est[v]))}", TEXT)
+            value = events_text(float(est[v])) if not unit else f"{float(est[v]):.0f}{unit}"
+            draw_text(img, 208, y + 2, f"RUL {value}", TEXT)
 
 
 def ansi(env: BrakeWearFleetEnv, info: dict[str, Any]) -> str:

@@ -270,3 +270,21 @@ def test_truncated_after_episode_shifts(make) -> None:
     assert flags == [False] * 4 + [True]
     with pytest.raises(RuntimeError, match="over"):
         env.step(act(PARK, PARK, PARK))
+
+
+def test_maskable_ppo_trains_and_honours_the_masks(make) -> None:
+    """sb3-contrib's MaskablePPO takes the env's flat mask (tiny budget: a smoke test)."""
+    sb3c = pytest.importorskip("sb3_contrib")
+    env = make(window_period=4, episode_shifts=16)
+    model = sb3c.MaskablePPO(
+        "MlpPolicy", env, n_steps=32, batch_size=16, n_epochs=1, seed=0,
+        policy_kwargs={"net_arch": [16]}, device="cpu",
+    )  # fmt: skip
+    model.learn(total_timesteps=64)
+    obs, _ = env.reset(seed=0)
+    for _ in range(16):
+        action, _ = model.predict(obs, action_masks=env.action_masks(), deterministic=False)
+        obs, _, _, truncated, info = env.step(action)
+        assert info["refused"] == []  # masked duties are never chosen
+        if truncated:
+            break
