@@ -134,6 +134,7 @@ class Workshop:
             return False
         self.stock -= 1
         into[v] = True
+        self.waiting[v] = False  # (a failed vehicle still waiting gets this spare)
         return True
 
     def fail(self, failed: B) -> B:

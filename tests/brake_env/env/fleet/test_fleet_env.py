@@ -288,3 +288,20 @@ def test_maskable_ppo_trains_and_honours_the_masks(make) -> None:
         assert info["refused"] == []  # masked duties are never chosen
         if truncated:
             break
+
+
+def test_vehicle_in_the_shop_gets_pads_for_labour_only_and_takes_a_bay(make) -> None:
+    env = make(breakdown_rate=0.99, bays=2, initial_stock=3, window_period=10_000)
+    env.reset(seed=0)
+    _, _, _, _, info = env.step(act(HOT, MILD, PARK))
+    broke = info["vehicles"]["broke_down"]
+    assert broke[:2].all() and not broke[2]  # a parked vehicle does not break down
+    assert env.shop.free_bays() == 0  # both bays hold the broken vehicles
+    mask = env.action_masks()[:12].reshape(3, 4)
+    assert mask[:2, SERVICE].all() and not mask[2, SERVICE]  # no bay for a visit
+    assert not mask[:2, [HOT, MILD]].any()
+    _, _, _, _, info = env.step(act(SERVICE, PARK, SERVICE))
+    assert info["counts"]["shop_fits"] == 1 and info["counts"]["visits"] == 0
+    assert info["deferred"] == [(2, "bay")]
+    assert info["costs"]["labour"] == env.config.costs.labour
+    assert info["costs"]["shop_visit"] == 0.0
