@@ -99,7 +99,8 @@ class FleetConfig:
             underground mine runs of the order of ten LHDs (assumption) [-].
         events_per_shift: Braking events of a working vehicle per shift. 400: a 12-hour
             shift of ~10 productive hours at ~40 stops an hour (assumption); on the hot
-            route a pad then lasts ~170 shifts, on the mild one ~800 (measured, README) [-].
+            route a pad then lasts ~160 shifts, on the mild one ~820 (at the mean K;
+            route_wear_model) [-].
         episode_shifts: Shifts per episode; truncated after them. 730: a year on a
             2 x 12 h roster, a few pad lives on the hot route [-].
         window_period: A scheduled maintenance window every this many shifts (the fleet's
