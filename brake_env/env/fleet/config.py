@@ -127,7 +127,9 @@ class FleetConfig:
         breakdown_repair_shifts: Shifts out after such a breakdown [shifts]. 1.
         initial_age_max: Each vehicle's first pad has already braked a uniform fraction in
             [0, this) of its expected life on the envelope's uniform mix (a fleet in
-            service, not all pads new at once); 0 starts every pad new [-]. 0.8.
+            service, not all pads new at once), and is at the volume the expected wear
+            path gives (its history before the episode is not observed); its streams
+            start there. 0 starts every pad new [-]. 0.8.
         regime, ood_share, k_mean, k_std, ood_shift_sigma: Wear regime of new pads, as in
             :class:`~brake_env.env.config.EnvConfig` (the paper's K ~ N(2e-6, 2e-7^2)).
         costs: Cost weights (:class:`FleetCosts` or a dict of its fields).

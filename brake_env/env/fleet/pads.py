@@ -18,7 +18,7 @@ needs more than is left: a vehicle costs the same memory whatever the episode's 
 from __future__ import annotations
 
 import copy
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -100,6 +100,16 @@ class FleetPads:
         self.pos[v], self.layer[v], self.done[v] = 0, 0, False
         self.vol[v], self.start[v], self.acc[v] = 1.0, 1.0, 0.0
         self._cur[v] = self._have[v] = 0
+
+    def start_at(self, age: NDArray[Any], volume: F64) -> None:
+        """Put each installed pad ``age`` events into its life at ``volume`` (the fleet's
+        first pads, in service before the episode). Its streams start at that event."""
+        self.pos[:] = age
+        self.vol[:] = volume
+        self.start[:], self.acc[:] = volume, 0.0
+        band = (self.edges[None, :] >= self.vol[:, None]).sum(axis=1)
+        self.done[:] = band >= self.edges.size
+        self.layer[:] = np.minimum(band, self.edges.size - 1)
 
     def clone(self) -> FleetPads:
         """An independent copy in the same state (the atlas shared): for simulating ahead."""
