@@ -7,8 +7,9 @@ Prints (targets in brackets):
   ratio to the simulator [>= 0.5x], and steps (shifts) per second;
 - the same with the digital twin's RUL wrapper (FleetRULObservation, one fleet update a
   shift) [>= 0.1x]; the twin is fitted on 6 simulated training pads first (not timed);
-- memory: the env's bytes per vehicle (tracemalloc peak while stepping) after 50 and after
-  the full episode of shifts [bounded: the same whatever the length];
+- memory: the env's bytes per vehicle (tracemalloc peak while stepping, from before its
+  reset) over 50 shifts and over the whole episode (729) [bounded: the same whatever the
+  length];
 - the hot/mild wear ratio per event from the atlas (fresh pad and last layer) and per
   shift as the env braked it.
 
@@ -125,7 +126,8 @@ def main() -> None:
     wrapped = FleetRULObservation(BrakeWearFleetEnv(atlas=atlas), twin)
     wn = max(args.shifts // 4, 20)
     _, wev, wdt, _ = run(wrapped, wn)
-    mem_short, mem_long = memory_per_vehicle(50), memory_per_vehicle(env.config.episode_shifts)
+    long = env.config.episode_shifts - 1  # the whole episode, before its reset
+    mem_short, mem_long = memory_per_vehicle(50), memory_per_vehicle(long)
     w_hot, w_mild = route_mean(atlas, HOT), route_mean(atlas, MILD)
     res = {
         "simulator_events_per_s": sim,
@@ -135,7 +137,7 @@ def main() -> None:
         "twin_events_per_s": wev / wdt,
         "twin_ratio": wev / wdt / sim,
         "bytes_per_vehicle_50_shifts": mem_short,
-        f"bytes_per_vehicle_{env.config.episode_shifts}_shifts": mem_long,
+        f"bytes_per_vehicle_{long}_shifts": mem_long,
         "hot_over_mild_per_event_fresh": float(w_hot[0] / w_mild[0]),
         "hot_over_mild_per_event_last_layer": float(w_hot[-1] / w_mild[-1]),
         "hot_over_mild_per_shift_env": wear_per_shift(BrakeWearFleetEnv(atlas=atlas)),
