@@ -162,11 +162,14 @@ class BrakeWearFleetEnv(gym.Env[NDArray[np.float32], NDArray[np.int64]]):
     ) -> tuple[NDArray[np.float32], dict[str, Any]]:
         super().reset(seed=seed)
         c = self.config
-        # Own streams for pads and breakdowns, so one's draws never shift the other's.
+        # Own streams for each vehicle's pads, the first pads' ages and the breakdowns, so
+        # that no draw shifts another: vehicle v's n-th pad (K, regime, streams) and the
+        # breakdown draws are the same whatever the policy (common random numbers).
         root = np.random.SeedSequence(int(self.np_random.integers(2**63)))
-        pad_seed, self._break_seed = root.spawn(2)
-        self._pad_rng = np.random.default_rng(pad_seed)
-        self._break_rng = np.random.default_rng(self._break_seed)
+        age_seed, break_seed, *pad_seeds = root.spawn(2 + c.n_vehicles)
+        self._pad_rngs = [np.random.default_rng(s) for s in pad_seeds]
+        self._age_rng = np.random.default_rng(age_seed)
+        self._break_rng = np.random.default_rng(break_seed)
         self.pads = FleetPads(self.atlas, c.n_vehicles, c.noise, self._capacity)
         for v in range(c.n_vehicles):
             self._install(v)
@@ -274,8 +277,9 @@ class BrakeWearFleetEnv(gym.Env[NDArray[np.float32], NDArray[np.int64]]):
     # ------------------------------------------------------------------ internals
     def _install(self, v: int) -> None:
         assert self.pads is not None
-        k, label = self.config.pad_regime.draw(self._pad_rng)
-        self.pads.install(v, k, label, int(self._pad_rng.integers(2**63)))
+        rng = self._pad_rngs[v]
+        k, label = self.config.pad_regime.draw(rng)
+        self.pads.install(v, k, label, int(rng.integers(2**63)))
 
     def _age_first_pads(self) -> None:
         """Each first pad has braked a random share of its expected life on the uniform mix,
@@ -284,7 +288,7 @@ class BrakeWearFleetEnv(gym.Env[NDArray[np.float32], NDArray[np.int64]]):
         assert self.pads is not None
         c, pads = self.config, self.pads
         clock = route_wear_model(self.atlas, UNIFORM)
-        age = self._pad_rng.random(c.n_vehicles) * c.initial_age_max * clock.life(pads.k)
+        age = self._age_rng.random(c.n_vehicles) * c.initial_age_max * clock.life(pads.k)
         age = age.astype(np.int64)
         pads.start_at(age, clock.volume_at_work(pads.k * age))
 

@@ -97,7 +97,7 @@ def action_mask(config: FleetConfig, shop: Workshop, shift: int) -> NDArray[np.b
     window = config.is_window(shift)
     m[:, [HOT, MILD]] = ~(down | window)[:, None]
     m[:, PARK] = True
-    m[:, SERVICE] = shop.stock > 0 and True
+    m[:, SERVICE] = shop.stock > 0
     if not window:
         m[~down, SERVICE] &= shop.free_bays() > 0
     return np.concatenate([m.ravel(), np.ones(config.max_order + 1, dtype=bool)])

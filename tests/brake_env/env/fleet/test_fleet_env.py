@@ -178,17 +178,17 @@ def test_window_fits_cost_labour_only(make) -> None:
 
 
 def test_failure_costs_damage_downtime_and_shortfall(make) -> None:
-    env = make(initial_age_max=0.95, window_period=10_000, breakdown_rate=0.0, hot_need=3)
+    env = make(window_period=10_000, breakdown_rate=0.0, hot_need=3, episode_shifts=200)
     env.reset(seed=4)
     totals = dict.fromkeys(env.config.costs.__dataclass_fields__, 0.0)
     failed_at = None
-    for s in range(60):
+    for s in range(150):  # 15,000 events: more than a whole pad's life on the hot route
         _, _, _, _, info = env.step(act(HOT, HOT, HOT))
         for k, v in info["costs"].items():
             totals[k] += v
         if info["counts"]["failures"] and failed_at is None:
             failed_at, fail_info = s, info
-    assert failed_at is not None, "a pad at 95% of its life on the hot route must fail"
+    assert failed_at is not None, "a pad must fail within a whole life on the hot route"
     n = fail_info["counts"]["failures"]
     assert fail_info["costs"]["damage"] == n * env.config.costs.damage
     assert fail_info["counts"]["corrective_fits"] == n  # spares in stock: fitted at once
@@ -305,3 +305,17 @@ def test_vehicle_in_the_shop_gets_pads_for_labour_only_and_takes_a_bay(make) -> 
     assert info["deferred"] == [(2, "bay")]
     assert info["costs"]["labour"] == env.config.costs.labour
     assert info["costs"]["shop_visit"] == 0.0
+
+
+def test_a_vehicles_pads_do_not_depend_on_the_policy(make) -> None:
+    """Common random numbers: vehicle v's n-th pad is the same whatever the others did."""
+    ks = []
+    for other in (PARK, SERVICE):  # vehicle 1 replaced or not before vehicle 0's visit
+        env = make(initial_stock=5, breakdown_rate=0.0)
+        env.reset(seed=8)
+        env.step(act(PARK, other, PARK))
+        env.step(act(SERVICE, PARK, PARK))
+        ks.append(env.truth()["wear_coeff"][0])
+        env.step(act(HOT, PARK, PARK))
+        ks.append(env.truth()["volume_frac"][0])
+    assert ks[0] == ks[2] and ks[1] == ks[3]
