@@ -11,7 +11,7 @@ SEED   ?= 0
 $(STAMP): pyproject.toml constraints.txt
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/pip install --quiet --upgrade pip
-	$(BIN)/pip install --quiet -c constraints.txt -e ".[rl,ray,dev]"
+	$(BIN)/pip install --quiet -c constraints.txt -e ".[rl,ray,dev,fleet]"
 	touch $(STAMP)
 
 venv: $(STAMP)

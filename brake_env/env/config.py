@@ -112,9 +112,10 @@ class EnvConfig:
         noise: Sensor noise of the observed channels (a :class:`SensorNoise` or a dict).
         preset: Brake calibration of the default atlas (``hot-duty`` or ``cold-start``).
         interpolate_layers: Blend adjacent atlas layers by volume (paper footnote 1).
-        truth: Give the true RUL: each new pad is simulated ahead to failure when it is
-            installed (on a copy of its random stream; events up to ~5e5 are kept for
-            serving, the rest only counted), so ``info["truth"]["rul_events"]`` and
+        truth: Give the true RUL: a pad is simulated ahead to failure when its truth is
+            first read (on a copy of its random stream; events up to ~5e5 are kept for
+            serving, the rest only counted; :mod:`brake_env.env.lazy_truth`: a policy that
+            never reads it never pays for it), so ``info["truth"]["rul_events"]`` and
             ``["life_events"]``, the events' ``rul_events`` column (the oracle reads it)
             and each :class:`~brake_env.env.pads.RetiredPad`'s ``life_left`` and ``life``
             are exact. With False the env simulates only the events it serves, so a

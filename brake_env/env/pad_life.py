@@ -8,7 +8,7 @@ events are bit for bit those of :func:`simulate_pad` (tested).
 
 The end of life (and so the true RUL) is known only once the pad has been simulated to
 failure: :attr:`PadLife.n_events` simulates ahead on a copy of the same stream when it is
-asked for (the env asks at installation when its config has ``truth``).
+asked for (with ``truth``, the first time the env's truth is read).
 
 Memory stays bounded whatever K: a pad keeps its events from installation up to
 ``BUFFER_EVENTS``, so a pad replayed from a cache, or looked at twice, is simulated once;
@@ -24,6 +24,7 @@ from typing import Any
 import numpy as np
 
 from brake_env.env.config import EnvConfig
+from brake_env.env.lazy_truth import PendingRULEvents
 from brake_env.model.atlas import Atlas
 from brake_env.model.simulator import F64, Block, Runs
 from brake_env.model.streams import NoiseStreams
@@ -120,7 +121,9 @@ class PadLife:
 
     def events(self, start: int = 0, stop: int | None = None) -> EventBatch:
         """Events ``start`` to ``stop`` (default: to the end of life) with ground truth:
-        ``volume_frac`` and ``wear_coeff``, and ``rul_events`` if the pad has ``truth``."""
+        ``volume_frac`` and ``wear_coeff``, and ``rul_events`` if the pad has ``truth``
+        (computed when first read if the end of life is not simulated yet:
+        :mod:`brake_env.env.lazy_truth`)."""
         self._fill(start, sys.maxsize if stop is None else stop)
         b = self._hi if stop is None else stop
         if not self._lo <= start <= b <= self._hi:
@@ -130,6 +133,8 @@ class PadLife:
         cols.update(zip(MEASURED, self._measured[:, i:j], strict=True))
         cols["volume_frac"] = self._volume[i:j]
         cols["wear_coeff"] = np.full(b - start, self.wear_coeff)
+        if self.truth and self._life is None:  # simulated ahead when first read
+            return PendingRULEvents.of(cols, lambda: self.n_events, start)
         if self.truth:
             life = self.n_events
             cols["rul_events"] = np.arange(life - 1 - start, life - 1 - b, -1)

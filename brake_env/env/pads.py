@@ -19,6 +19,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from brake_env.env.config import EnvConfig
+from brake_env.env.lazy_truth import LazyTruth
 from brake_env.env.pad_life import PadLife
 from brake_env.model.atlas import Atlas
 from brake_env.model.simulator import simulate_runs
@@ -49,6 +50,52 @@ class RetiredPad:
     def failed(self) -> bool:
         """It was taken off by a brake failure, not by a planned replacement."""
         return self.life_left == 0
+
+
+class _PendingRetiredPad(RetiredPad):
+    """A pad taken off by a planned replacement in an env with ``truth`` whose end of life
+    is not simulated yet: ``life_left`` and ``life`` are simulated when first read
+    (:mod:`brake_env.env.lazy_truth`), and the pad is let go then."""
+
+    @classmethod
+    def of(cls, pad: PadLife, pos: int) -> _PendingRetiredPad:
+        obj = object.__new__(cls)
+        object.__setattr__(obj, "regime", pad.label)
+        object.__setattr__(obj, "_pad", pad)
+        object.__setattr__(obj, "_pos", pos)
+        object.__setattr__(obj, "_life", None)
+        return obj
+
+    def _resolve(self) -> int:
+        if self.__dict__["_life"] is None:
+            object.__setattr__(self, "_life", self.__dict__["_pad"].n_events)
+            object.__setattr__(self, "_pad", None)
+        life: int = self.__dict__["_life"]
+        return life
+
+    @property
+    def life_left(self) -> int:
+        return self._resolve() - self.__dict__["_pos"]
+
+    @property
+    def life(self) -> int:
+        return self._resolve()
+
+    def __eq__(self, other: object) -> bool:
+        """Equal to any RetiredPad of the same values (pending or not)."""
+        if not isinstance(other, RetiredPad):
+            return NotImplemented
+        return (self.life_left, self.life, self.regime) == (
+            other.life_left,
+            other.life,
+            other.regime,
+        )
+
+    __hash__ = RetiredPad.__hash__
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        """Pickled as a plain RetiredPad, the truth computed."""
+        return (RetiredPad, (self.life_left, self.life, self.regime))
 
 
 def simulate_pad(
@@ -149,9 +196,9 @@ class PadService:
 
     # ------------------------------------------------------------------ internals
     def _install(self) -> None:
+        # With ``truth`` the pad's life is simulated ahead only when the truth is first
+        # read (brake_env.env.lazy_truth): exploration that never reads it never pays it.
         self.pad, self.pos = self._new_pad(), 0
-        if self.config.truth:
-            self.pad.n_events  # simulate ahead to failure: the true RUL  # noqa: B018
 
     def _new_pad(self) -> PadLife:
         if self.config.pad_pool:
@@ -177,6 +224,8 @@ class PadService:
             return RetiredPad(0, self.pos, pad.label)
         if not self.config.truth:
             return RetiredPad(None, None, pad.label)
+        if pad.life is None:
+            return _PendingRetiredPad.of(pad, self.pos)
         return RetiredPad(pad.n_events - self.pos, pad.n_events, pad.label)
 
     def _serve(self, n: int, replaced: bool) -> dict[str, Any]:
@@ -215,7 +264,14 @@ class PadService:
     ) -> dict[str, Any]:
         pad = self.pad
         assert pad is not None
-        life = pad.n_events if self.config.truth else None
+        life = pad.life if self.config.truth else None
+        truth = {
+            "volume_frac": pad.volume_after(self.pos - 1),
+            "wear_coeff": pad.wear_coeff,
+            "rul_events": None if life is None else life - self.pos,
+            "life_events": life,
+            "regime": pad.label,
+        }
         return {
             "events": _event_columns(segments),
             "costs": costs,
@@ -223,13 +279,9 @@ class PadService:
             "failures": failures,
             "pads_retired": len(retired),
             "retired": retired,
-            "truth": {
-                "volume_frac": pad.volume_after(self.pos - 1),
-                "wear_coeff": pad.wear_coeff,
-                "rul_events": None if life is None else life - self.pos,
-                "life_events": life,
-                "regime": pad.label,
-            },
+            "truth": LazyTruth(truth, lambda: pad.n_events, self.pos)
+            if self.config.truth and life is None
+            else truth,
         }
 
 

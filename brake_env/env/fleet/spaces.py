@@ -1,0 +1,103 @@
+"""Observation and action layout of BrakeWearFleet-v0, and the mask of allowed actions.
+
+The observation is one flat float32 Box: ``VEHICLE_FEATURES`` for each vehicle in vehicle
+order, then ``FLEET_FEATURES``. :func:`split_observation` gives the two parts back as
+arrays. The action is ``MultiDiscrete([4] * n_vehicles + [max_order + 1])``: a duty per
+vehicle (0 hot, 1 mild, 2 park, 3 service), then the reorder quantity.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from gymnasium import spaces
+from numpy.typing import NDArray
+
+from brake_env.env.fleet.config import FleetConfig
+from brake_env.env.fleet.pads import ShiftEvents
+from brake_env.env.fleet.shop import HOT, MILD, PARK, SERVICE, Workshop
+from brake_env.model.streams import SENSOR_CHANNELS
+
+F32 = NDArray[np.float32]
+# Per vehicle: the shift's mean of each event-log channel, its hottest event, the events
+# braked, the pad's age and the shifts it is still out of service.
+VEHICLE_FEATURES = (
+    *(f"{c}_mean" for c in SENSOR_CHANNELS),
+    "temp_c_max",
+    "events",
+    "pad_age",
+    "down_shifts",
+)
+FLEET_FEATURES = ("shift", "shifts_to_window", "stock", "in_transit", "free_bays")
+N_VF = len(VEHICLE_FEATURES)
+# Sensor ranges (BrakeWear-v0's observation ranges), readings clipped into them.
+_SENSOR_LOW = np.array([0.0, 0.0, -np.pi / 2, 0.0, -273.15, 0.0], dtype=np.float32)
+_SENSOR_HIGH = np.array([200.0, 1e6, np.pi / 2, 1e9, 3000.0, 1e4], dtype=np.float32)
+MAX_AGE = 1e7  # events; more than any pad's life at the K range allowed
+
+
+def observation_space(config: FleetConfig) -> spaces.Box:
+    c = config
+    v_low = np.concatenate([_SENSOR_LOW, [-273.15, 0.0, 0.0, 0.0]])
+    v_high = np.concatenate(
+        [_SENSOR_HIGH, [3000.0, c.events_per_shift, MAX_AGE, 10 * c.failure_repair_shifts + 1e4]]
+    )
+    max_stock = c.initial_stock + c.max_order * c.episode_shifts
+    f_low = np.zeros(len(FLEET_FEATURES))
+    f_high = np.array(
+        [c.episode_shifts, c.window_period - 1, max_stock, c.max_order * c.lead_time, c.bays]
+    )
+    low = np.concatenate([np.tile(v_low, c.n_vehicles), f_low]).astype(np.float32)
+    high = np.concatenate([np.tile(v_high, c.n_vehicles), f_high]).astype(np.float32)
+    return spaces.Box(low, high, dtype=np.float32)
+
+
+def action_space(config: FleetConfig) -> spaces.MultiDiscrete:
+    return spaces.MultiDiscrete([4] * config.n_vehicles + [config.max_order + 1])
+
+
+def split_observation(obs: F32, n_vehicles: int) -> tuple[F32, F32]:
+    """(per-vehicle features (n_vehicles, len(VEHICLE_FEATURES)), fleet features)."""
+    return obs[: n_vehicles * N_VF].reshape(n_vehicles, N_VF), obs[n_vehicles * N_VF :]
+
+
+def shift_summary(ev: ShiftEvents | None, n: int) -> NDArray[np.float64]:
+    """(n, 8): each vehicle's channel means and hottest reading over the shift's events,
+    and their count; zeros for a vehicle that braked none."""
+    out = np.zeros((n, len(SENSOR_CHANNELS) + 2))
+    if ev is None or ev.measured is None:
+        return out
+    count = ev.valid.sum(axis=1)
+    w = np.where(ev.valid, 1.0, 0.0)
+    out[:, :6] = (ev.measured * w).sum(axis=2).T / np.maximum(count, 1)[:, None]
+    temp = np.where(ev.valid, ev.measured[4], -np.inf).max(axis=1)
+    out[:, 6] = np.where(count > 0, temp, 0.0)
+    out[:, 7] = count
+    return out
+
+
+def fleet_observation(
+    config: FleetConfig, summary: NDArray[np.float64], pad_age: NDArray[np.int64],
+    shop: Workshop, shift: int, box: spaces.Box,
+) -> F32:  # fmt: skip
+    """The flat observation at the start of shift ``shift``."""
+    per = np.concatenate([summary, pad_age[:, None], shop.down[:, None]], axis=1)
+    fleet = [shift, config.shifts_to_window(shift), shop.stock, shop.in_transit, shop.free_bays()]
+    obs = np.concatenate([per.ravel(), fleet]).astype(np.float32)
+    return np.clip(obs, box.low, box.high, out=obs)
+
+
+def action_mask(config: FleetConfig, shop: Workshop, shift: int) -> NDArray[np.bool_]:
+    """Flat mask of length ``sum(nvec)`` (sb3-contrib MaskablePPO): per vehicle, no duty
+    while down or during a window; service only with a spare in stock and, for a visit, a
+    free bay; every reorder quantity allowed. Limits across vehicles (two requests, one
+    bay) are left to the workshop's deferral rule (:mod:`.shop`)."""
+    n = config.n_vehicles
+    m = np.ones((n, 4), dtype=bool)
+    down = shop.down > 0
+    window = config.is_window(shift)
+    m[:, [HOT, MILD]] = ~(down | window)[:, None]
+    m[:, PARK] = True
+    m[:, SERVICE] = shop.stock > 0
+    if not window:
+        m[~down, SERVICE] &= shop.free_bays() > 0
+    return np.concatenate([m.ravel(), np.ones(config.max_order + 1, dtype=bool)])

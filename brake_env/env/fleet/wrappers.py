@@ -1,0 +1,165 @@
+"""Any RUL predictor as an observation wrapper of BrakeWearFleet-v0: each vehicle's estimate
+and interval, all vehicles through the predictor's fleet API in one call per shift."""
+
+from __future__ import annotations
+
+from typing import Any, SupportsFloat
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+from numpy.typing import NDArray
+
+from brake_env.env.fleet.pads import ShiftEvents
+from brake_env.env.fleet.routes import UNIFORM, route_wear_model
+from brake_env.model.streams import SENSOR_CHANNELS
+from brake_env.prognostics.fleet import Fleet, LoopFleet, vectorises
+from brake_env.prognostics.protocol import EventBatch, RULEstimate, RULPredictor
+
+ESTIMATE_FIELDS = ("rul_mean", "rul_lower", "rul_upper")
+_RUL_HIGH = 1e7  # events; a wild extrapolation is clipped into the space
+
+
+class FleetRULObservation(
+    gym.ObservationWrapper[NDArray[np.float32], NDArray[np.int64], NDArray[np.float32]]
+):
+    """Append each vehicle's RUL estimate (in braking events) to the fleet's observation.
+
+    After every shift the events of all vehicles that braked go, concatenated in vehicle
+    order, into one :meth:`~brake_env.prognostics.fleet.Fleet.update` of the predictor's
+    fleet (a vectorised one where the predictor has it, else one copy per vehicle), which is
+    asked for each vehicle's estimate after its last event. A vehicle's slot is reset when a
+    new pad's events arrive (they start at event 0); the pads in service at the start of an
+    episode are first seen mid-life (the protocol allows a first batch to start anywhere).
+    A vehicle whose pad is new and has braked nothing yet shows ``fresh_rul`` (the expected
+    life of a pad of mean K on the envelope's uniform mix) for every field; a vehicle that
+    did not brake keeps its last estimate. The RUL is the predictor's, in events under its
+    own assumption of the operating mix (the paper's predictors assume the envelope's
+    uniform one); predictors that give volume and K estimates put them in
+    ``info["rul_estimate"]`` too, from which a route's RUL follows
+    (:func:`~brake_env.env.fleet.routes.route_wear_model`).
+
+    A predictor without an interval (the oracle, the MLP) gives its estimate as both
+    bounds: an interval of zero width.
+
+    Observation: the base observation, then ``len(fields)`` values per vehicle (vehicle
+    order, fields in the given order), each in [0, 1e7] events.
+
+    Args:
+        env: BrakeWearFleet-v0 (possibly wrapped).
+        predictor: A fitted RUL predictor.
+        fields: Estimate fields to append: ``rul_mean``, ``rul_lower``, ``rul_upper``.
+    """
+
+    def __init__(
+        self,
+        env: gym.Env[NDArray[np.float32], NDArray[np.int64]],
+        predictor: RULPredictor,
+        fields: tuple[str, ...] = ESTIMATE_FIELDS,
+    ) -> None:
+        super().__init__(env)
+        bad = [f for f in fields if f not in ESTIMATE_FIELDS]
+        if bad or not fields:
+            raise ValueError(f"FleetRULObservation: fields must be among {ESTIMATE_FIELDS}")
+        base = env.observation_space
+        if not isinstance(base, spaces.Box) or len(base.shape) != 1:
+            raise ValueError(f"FleetRULObservation needs a 1-D Box observation, got {base}")
+        fleet_env = env.unwrapped
+        self.n = int(fleet_env.config.n_vehicles)  # type: ignore[attr-defined]
+        k = len(fields) * self.n
+        self.observation_space = spaces.Box(
+            np.concatenate([base.low, np.zeros(k, dtype=np.float32)]),
+            np.concatenate([base.high, np.full(k, _RUL_HIGH, dtype=np.float32)]),
+            dtype=np.float32,
+        )
+        self.predictor, self.fields = predictor, tuple(fields)
+        wear = fleet_env.config.wear  # type: ignore[attr-defined]
+        atlas = fleet_env.atlas  # type: ignore[attr-defined]
+        self.fresh_rul = float(route_wear_model(atlas, UNIFORM).life(wear.k_mean))
+        self._est = np.full((self.n, len(fields)), self.fresh_rul)
+        self._fleet: Fleet | None = None
+        self._extra: dict[str, NDArray[np.float64]] = {}
+
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[NDArray[np.float32], dict[str, Any]]:
+        obs, info = self.env.reset(seed=seed, options=options)
+        if self._fleet is None:
+            self._fleet = (
+                self.predictor.fleet(self.n)  # type: ignore[attr-defined]
+                if vectorises(self.predictor)
+                else LoopFleet(self.predictor, self.n)  # type: ignore[arg-type]
+            )
+        self._fleet.reset(np.arange(self.n))
+        self._est[:] = self.fresh_rul
+        self._extra = {}
+        info["rul_estimate"] = self._info()
+        return self.observation(obs), info
+
+    def step(
+        self, action: NDArray[np.int64]
+    ) -> tuple[NDArray[np.float32], SupportsFloat, bool, bool, dict[str, Any]]:
+        obs, reward, terminated, truncated, info = self.env.step(action)
+        self._feed(info)
+        info["rul_estimate"] = self._info()
+        return self.observation(obs), reward, terminated, truncated, info
+
+    def observation(self, observation: NDArray[np.float32]) -> NDArray[np.float32]:
+        est = np.clip(self._est, 0.0, _RUL_HIGH).ravel()
+        return np.concatenate([observation, est]).astype(np.float32, copy=False)
+
+    def _feed(self, info: dict[str, Any]) -> None:
+        base = self.env.unwrapped
+        ev: ShiftEvents | None = base.shift_events()  # type: ignore[attr-defined]
+        assert self._fleet is not None
+        if ev is not None and ev.n_done.any():
+            fresh = np.flatnonzero((ev.n_done > 0) & (ev.first_event == 0))
+            if fresh.size:
+                self._fleet.reset(fresh)
+            rul = info["truth"].get("rul_hot")
+            batch, vehicles = shift_batch(ev, rul)
+            est = self._fleet.update(np.repeat(vehicles, ev.n_done[vehicles]), batch)
+            self._store(est, vehicles)
+        new = base.pads.pos == 0  # type: ignore[attr-defined]
+        self._est[new] = self.fresh_rul
+        for x in self._extra.values():
+            x[new] = np.nan
+
+    def _store(self, est: RULEstimate, vehicles: NDArray[np.intp]) -> None:
+        for i, f in enumerate(self.fields):
+            x = getattr(est, f)
+            # A point predictor (the oracle, the MLP) has no interval: its bounds are its
+            # estimate, an interval of zero width.
+            self._est[vehicles, i] = est.rul_mean if x is None else x
+        for f in ("volume_frac", "wear_coeff"):
+            x = getattr(est, f)
+            if x is not None:
+                self._extra.setdefault(f, np.full(self.n, np.nan))[vehicles] = x
+
+    def _info(self) -> dict[str, NDArray[np.float64]]:
+        out = {f: self._est[:, i].copy() for i, f in enumerate(self.fields)}
+        out.update((k, v.copy()) for k, v in self._extra.items())
+        return out
+
+
+def shift_batch(
+    ev: ShiftEvents, rul_after: NDArray[np.int64] | None = None
+) -> tuple[EventBatch, NDArray[np.intp]]:
+    """The shift's events of every vehicle that braked, concatenated in vehicle order (each
+    vehicle's rows contiguous and in event order, as a predictor fleet takes them), and
+    those vehicles. ``rul_after`` (each pad's true RUL after the shift, when known) fills
+    the ``rul_events`` column; a pad that failed in the shift had 0 after its last event."""
+    if ev.measured is None:
+        raise ValueError("shift_batch needs the measured channels of the shift")
+    vehicles = np.flatnonzero(ev.n_done > 0)
+    mask = ev.valid
+    idx = np.arange(ev.valid.shape[1])
+    event = (ev.first_event[:, None] + idx)[mask]
+    cols: dict[str, Any] = {c: ev.measured[i][mask] for i, c in enumerate(SENSOR_CHANNELS)}
+    rows = np.repeat(vehicles, ev.n_done[vehicles])
+    cols["volume_frac"] = ev.volume_frac[mask]
+    cols["wear_coeff"] = ev.wear_coeff[rows]
+    if rul_after is not None:
+        after = np.where(ev.failed, 0, rul_after)
+        cols["rul_events"] = (after[:, None] + (ev.n_done[:, None] - 1 - idx))[mask]
+    return EventBatch(event=event, **cols), vehicles

@@ -1,0 +1,106 @@
+"""BrakeWearFleet-v0's PettingZoo version and its RUL observation wrapper."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from brake_env.env.fleet.env import BrakeWearFleetEnv
+from brake_env.env.fleet.wrappers import FleetRULObservation
+from brake_env.prognostics.protocol import NoPrognostics, Oracle
+
+pytest.importorskip("pettingzoo")
+from pettingzoo.test import parallel_api_test
+
+from brake_env.env.fleet.parallel import STORE, BrakeWearFleetParallelEnv
+
+SMALL = {
+    "n_vehicles": 3,
+    "hot_need": 1,
+    "events_per_shift": 100,
+    "episode_shifts": 60,
+    "initial_age_max": 0.3,
+    "k_mean": 1e-5,
+    "k_std": 1e-6,
+}
+
+
+def test_parallel_api(atlas) -> None:
+    env = BrakeWearFleetParallelEnv(atlas=atlas, **SMALL)
+    parallel_api_test(env, num_cycles=1000)
+    assert env.observation_space("vehicle_0") is env.observation_space("vehicle_0")
+    assert env.possible_agents[-1] == STORE
+
+
+def _digest(seed: int) -> str:
+    env = BrakeWearFleetParallelEnv(**SMALL)
+    obs, _ = env.reset(seed=seed)
+    out = []
+    for agent in env.agents:
+        env.action_space(agent).seed(1)
+    for _ in range(20):
+        actions = {
+            a: int(env.action_space(a).sample(mask=obs[a]["action_mask"])) for a in env.agents
+        }
+        obs, rew, *_ = env.step(actions)
+        out.append(round(sum(float(o["observation"].sum()) for o in obs.values()), 6))
+        out.append(rew[STORE])
+    return repr(out)
+
+
+_SCRIPT = "from tests.brake_env.env.fleet.test_fleet_parallel import _digest; print(_digest(9))"
+
+
+def test_parallel_reset_seed_reproducible_across_processes() -> None:
+    runs = {
+        subprocess.run(
+            [sys.executable, "-c", _SCRIPT], capture_output=True, text=True, check=True
+        ).stdout
+        for _ in range(2)
+    }
+    assert runs == {_digest(9) + "\n"}
+
+
+def test_parallel_step_is_the_single_env_step(atlas) -> None:
+    par = BrakeWearFleetParallelEnv(atlas=atlas, **SMALL)
+    single = BrakeWearFleetEnv(atlas=atlas, **SMALL)
+    obs_p, _ = par.reset(seed=4)
+    obs_s, _ = single.reset(seed=4)
+    for _ in range(10):
+        joint = np.array([0, 1, 2, 1])
+        actions = {f"vehicle_{v}": int(joint[v]) for v in range(3)} | {STORE: 1}
+        obs_p, rew, *_ = par.step(actions)
+        obs_s, r, *_ = single.step(joint)
+        assert rew["vehicle_2"] == r
+        np.testing.assert_array_equal(par.state(), obs_s)
+        np.testing.assert_array_equal(obs_p[STORE]["action_mask"], single.action_masks()[12:])
+
+
+def test_oracle_wrapper_gives_the_true_hot_route_rul(atlas) -> None:
+    env = FleetRULObservation(BrakeWearFleetEnv(atlas=atlas, truth=True, **SMALL), Oracle())
+    obs, info = env.reset(seed=0)
+    assert obs.shape == (35 + 9,)
+    for _ in range(6):
+        obs, _, _, _, info = env.step(np.array([0, 0, 0, 1]))
+    truth = env.unwrapped.true_rul("hot")
+    np.testing.assert_array_equal(info["rul_estimate"]["rul_mean"], truth)
+    np.testing.assert_array_equal(obs[35:].reshape(3, 3)[:, 0], truth.astype(np.float32))
+    np.testing.assert_array_equal(
+        info["rul_estimate"]["wear_coeff"], env.unwrapped.truth()["wear_coeff"]
+    )
+
+
+def test_wrapper_resets_a_vehicle_with_a_new_pad(atlas) -> None:
+    pred = NoPrognostics(mean_life_events=5000.0)
+    env = FleetRULObservation(BrakeWearFleetEnv(atlas=atlas, **SMALL), pred, ("rul_mean",))
+    env.reset(seed=0)
+    env.step(np.array([0, 1, 0, 0]))
+    _, _, _, _, info = env.step(np.array([3, 1, 0, 0]))  # vehicle 0: a shop visit
+    est = info["rul_estimate"]["rul_mean"]
+    assert est[0] == env.fresh_rul  # new pad, nothing braked yet
+    # Its events restart at 0: the slot was reset (else the predictor rejects the batch).
+    _, _, _, _, info = env.step(np.array([0, 1, 0, 0]))
+    assert info["rul_estimate"]["rul_mean"][0] == 5000.0
