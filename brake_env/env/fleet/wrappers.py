@@ -88,7 +88,7 @@ class FleetRULObservation(
             self._fleet = (
                 self.predictor.fleet(self.n)  # type: ignore[attr-defined]
                 if vectorises(self.predictor)
-                else LoopFleet(self.predictor, self.n)  # type: ignore[arg-type]
+                else LoopFleet(self.predictor, self.n)
             )
         self._fleet.reset(np.arange(self.n))
         self._est[:] = self.fresh_rul
