@@ -217,7 +217,9 @@ class BrakeWearFleetEnv(gym.Env[NDArray[np.float32], NDArray[np.int64]]):
         waited = shop.fit_waiting()
         for v in np.flatnonzero(waited):
             self._install(int(v))
-        counts = self._counts(plan, ev, fitted | waited, broke, quantity, arrived, window)
+        counts = self._counts(
+            plan, ev, fitted | waited, broke, quantity=quantity, arrived=arrived, window=window
+        )
         counts["downtime"], counts["stock"] = down_failed, held
         costs = self._costs(counts)
         self._events = ev
@@ -305,7 +307,7 @@ class BrakeWearFleetEnv(gym.Env[NDArray[np.float32], NDArray[np.int64]]):
 
     def _counts(
         self, plan: Plan, ev: ShiftEvents, fitted: NDArray[np.bool_], broke: NDArray[np.bool_],
-        quantity: int, arrived: int, window: bool,
+        *, quantity: int, arrived: int, window: bool,
     ) -> dict[str, int]:  # fmt: skip
         c = self.config
         on_hot = int((plan.route == 0).sum())

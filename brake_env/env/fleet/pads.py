@@ -161,8 +161,9 @@ class FleetPads:
         while active.any():
             rows = np.flatnonzero(active)
             self._round(
-                rows, n_events[rows] - done_n[rows], route[rows], done_n, out_m, out_v, valid
-            )
+                rows, n_events[rows] - done_n[rows], route[rows], done_n,
+                out_m=out_m, out_v=out_v, valid=valid,
+            )  # fmt: skip
             active = (done_n < n_events) & ~self.done
         failed = (done_n < n_events) & self.done
         return ShiftEvents(out_m, out_v, valid, first, done_n, failed, self.k.copy())
@@ -173,6 +174,7 @@ class FleetPads:
         need: I64,
         route: I64,
         done_n: I64,
+        *,
         out_m: F64 | None,
         out_v: F64,
         valid: NDArray[np.bool_],

@@ -82,7 +82,7 @@ class FleetFrame:
             est = self._hot.rul(vol, t["wear_coeff"]) / c.events_per_shift
         unit = "" if "rul_estimate" in self.info else " SH"
         for v in range(c.n_vehicles):
-            self._row(img, v, float(t["volume_frac"][v]), end, letters[v], est, unit)
+            self._row(img, v, float(t["volume_frac"][v]), end, letters[v], est=est, unit=unit)
         return img
 
     def _row(
@@ -92,6 +92,7 @@ class FleetFrame:
         vol: float,
         end: float,
         duty: str,
+        *,
         est: Any,
         unit: str,
     ) -> None:
