@@ -9,6 +9,18 @@ the environment (batches of ``decision_interval`` events) or over a whole logged
 Events travel as an :class:`EventBatch`: numpy arrays named like the event-log columns
 (README "Event-log schema"), so a predictor written against logs runs unchanged online.
 Ground-truth columns are present in simulated data and used only by :class:`Oracle`.
+
+Gaps. ``event`` counts braking events since the pad was installed, and it may skip
+indices (the schema allows it; real loggers drop events). Every predictor reads a gap the
+same way: the missing events were braked but not logged, so the pad wore on through them.
+Nothing was measured about them, so they are taken as drawn from the pad's operating mix:
+each wears the expected amount per event for what the predictor believes about the pad
+(the twin: the wear path ``K * n`` of each K of its posterior; the physics line: its fixed
+rate; the window model and the MLP: the event index, which counts the gap). An estimate
+after event ``n`` is the RUL counted from event ``n``, the last one logged, and it is
+exactly the estimate the same predictor gives after ``n`` on the full log, except that the
+evidence of the missing events is missing (the posterior is wider, the windows hold fewer
+events). A gap longer than the life the predictor believes in gives RUL 0, not an error.
 """
 
 from __future__ import annotations
@@ -200,7 +212,9 @@ class Predictor(ABC):
 
         ``event`` counts from the pad's installation, so the first batch after ``reset``
         may start anywhere: a log that starts mid-life (first row at event 30,000) means
-        30,000 events nobody logged. Later batches continue where the previous one ended.
+        30,000 events nobody logged. Events may skip indices, within a batch or between
+        batches: the skipped events were braked but not logged, and the pad wore on (the
+        module docstring, "Gaps"). They never go back.
         """
         if len(events) == 0:
             raise ValueError(f"{self.name}: update() needs at least one event")
@@ -208,10 +222,16 @@ class Predictor(ABC):
         if self._next_event is None:
             if first < 0:
                 raise ValueError(f"{self.name}: event indices start at 0, got {first}")
-        elif first != self._next_event:
+        elif first < self._next_event:
             raise ValueError(
-                f"{self.name}: batch starts at event {first}, expected"
-                f" {self._next_event} (call reset() when a pad is installed)"
+                f"{self.name}: batch starts at event {first}, but the previous batch ended at"
+                f" event {self._next_event - 1} (call reset() when a pad is installed)"
+            )
+        if len(events) > 1 and np.any(np.diff(events.event) <= 0):
+            i = int(np.flatnonzero(np.diff(events.event) <= 0)[0]) + 1
+            raise ValueError(
+                f"{self.name}: events must increase within a batch (event"
+                f" {int(events.event[i])} after {int(events.event[i - 1])})"
             )
         est = self._update(events)
         if len(est) != len(events):
