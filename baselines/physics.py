@@ -169,6 +169,9 @@ class PhysicsPredictor(Predictor):
     def _at_rows(self, events: EventBatch, want: NDArray[np.bool_]) -> RULEstimate:
         return self._estimate(events.event[want])
 
+    def fitted_wear_coeff(self) -> float | None:
+        return self.k_avg
+
     def get_state(self) -> tuple[dict[str, Any], dict[str, NDArray[Any]]]:
         if self.k_avg is None:
             raise RuntimeError("physics: nothing to save, call fit() or set_k() first")

@@ -24,6 +24,7 @@ from tqdm import tqdm
 from brake_env.cli.common import (
     add_common_args,
     add_runner_args,
+    add_strict_arg,
     int_at_least,
     load_atlas,
     make_runner,
@@ -31,6 +32,7 @@ from brake_env.cli.common import (
 from brake_env.cli.demo import DemoContext
 from brake_env.cli.simulate import cmd_simulate, dataset_spec
 from brake_env.data.datasets import SPLITS, DatasetSpec, write_dataset
+from brake_env.data.plausibility import warn_implausible
 from brake_env.data.schema import read_event_log
 from brake_env.model.atlas import Atlas
 from brake_env.model.regime import WearRegime
@@ -132,6 +134,7 @@ def cmd_diagnose(args: argparse.Namespace) -> dict[str, Any]:
     from sim2real.rul import rul_scorer
 
     atlas = Atlas.load(args.model) if args.model else load_atlas(args)
+    warn_implausible(log, atlas, "diagnose", strict=args.strict)
     cands = None
     if args.candidates:
         reg = registry()
@@ -331,6 +334,7 @@ def _add_diagnose(sub: argparse._SubParsersAction[Any]) -> None:
         help="share of runs used to fit candidate parameters",
     )
     d.add_argument("--no-rul", action="store_true", help="skip the twin's RUL error")
+    add_strict_arg(d)
     d.set_defaults(func=cmd_diagnose)
 
 

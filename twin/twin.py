@@ -105,6 +105,10 @@ class DigitalTwin(Predictor):
     def _fit(self, train_log: pd.DataFrame) -> None:
         self.set_calibration(fit_calibration(self.atlas, train_log, self.config, self.wear))
 
+    def fitted_wear_coeff(self) -> float | None:
+        """The prior's median K (None before fit)."""
+        return None if self.calibration is None else math.exp(self.calibration.k_log_mean)
+
     def get_state(self) -> tuple[dict[str, Any], dict[str, NDArray[Any]]]:
         """The configuration and the calibration as JSON-able dicts (inf as ``"inf"``); the
         grid is rebuilt from them."""

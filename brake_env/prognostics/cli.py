@@ -24,12 +24,14 @@ from tqdm import tqdm
 from brake_env.cli.common import (
     add_common_args,
     add_runner_args,
+    add_strict_arg,
     add_wear_args,
     int_at_least,
     load_atlas,
 )
 from brake_env.cli.demo import DemoContext
 from brake_env.data.datasets import DatasetSpec, find_logs
+from brake_env.data.plausibility import warn_fitted, warn_implausible
 from brake_env.data.schema import read_event_log
 from brake_env.model.atlas import Atlas
 from brake_env.model.regime import WearRegime
@@ -85,6 +87,7 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
     e.add_argument(
         "--mlp-epochs", type=int_at_least(1), default=None, help="MLP epochs (default: its config)"
     )
+    add_strict_arg(e)
     _add_seeds_args(e)
     e.set_defaults(func=cmd_evaluate)
 
@@ -173,11 +176,17 @@ def cmd_evaluate(args: argparse.Namespace, skip_unfittable: bool = False) -> dic
     read_s = time.perf_counter() - t0
     atlas = load_atlas(args)
     _check_atlas(Path(args.data), atlas.content_hash)
+    strict = bool(getattr(args, "strict", False))  # the demo's namespace has no --strict
+    for split, lg in logs.items():
+        warn_implausible(lg, atlas, f"evaluate {split}", lives=split == "train", strict=strict)
     predictors = _make_predictors(args, atlas)
     skipped: dict[str, str] | None = {} if skip_unfittable else None
     fit_s = fit_all(predictors, logs["train"], args.quiet, skipped)
     if not predictors:
         raise ValueError(f"no predictor could be fitted: {skipped}")
+    warn_fitted(
+        {n: p.fitted_wear_coeff() for n, p in predictors.items()}, "evaluate", strict=strict
+    )
     t0 = time.perf_counter()
     ev = _predict_and_score(predictors, logs, args)
     predict_s = time.perf_counter() - t0

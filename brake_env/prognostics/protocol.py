@@ -255,6 +255,12 @@ class Predictor(ABC):
         """Restore what :meth:`get_state` returned, on a predictor made by the same factory."""
         raise NotImplementedError(f"{self.name}: this predictor cannot be loaded")
 
+    def fitted_wear_coeff(self) -> float | None:
+        """The typical wear coefficient K fitting learned, for the plausibility check of
+        fitted parameters (:func:`brake_env.data.plausibility.check_wear_coeff`); None when
+        the predictor learns no K or is not fitted."""
+        return None
+
     def _fit(self, train_log: pd.DataFrame) -> None:  # noqa: B027 - optional hook
         pass
 
