@@ -34,6 +34,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
+from brake_env._validate import check_state
 from brake_env.data.schema import FAILED
 
 if TYPE_CHECKING:
@@ -280,7 +281,7 @@ class Oracle(Predictor):
         return {}, {}  # nothing learned: it reads the truth
 
     def set_state(self, meta: Mapping[str, Any], arrays: Mapping[str, NDArray[Any]]) -> None:
-        pass
+        check_state("oracle", meta, arrays)  # nothing learned: nothing may be there
 
     def _update(self, events: EventBatch) -> RULEstimate:
         if events.rul_events is None:
@@ -328,7 +329,11 @@ class NoPrognostics(Predictor):
         return {"mean_life_events": self.mean_life_events}, {}
 
     def set_state(self, meta: Mapping[str, Any], arrays: Mapping[str, NDArray[Any]]) -> None:
-        m = meta.get("mean_life_events")
+        check_state("none", meta, arrays, meta_keys=["mean_life_events"])
+        m = meta["mean_life_events"]
+        # inf is a saved choice (a pad that never wears out); NaN or a word is damage.
+        if m is not None and not (isinstance(m, int | float) and float(m) > 0):
+            raise ValueError(f"none: saved setting 'mean_life_events' is {m!r}, not a life > 0")
         self.mean_life_events = None if m is None else float(m)
 
     def _update(self, events: EventBatch) -> RULEstimate:
