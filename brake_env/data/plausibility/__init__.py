@@ -32,6 +32,7 @@ become one :class:`ImplausibleDataError` (a ``ValueError``) listing them all.
 
 from __future__ import annotations
 
+import math
 import warnings
 
 import numpy as np
@@ -105,7 +106,9 @@ def check_wear_coeff(
         Finding(
             "fitted",
             (),
-            f"{what} K = {k:.3g}, {k / nominal:.3g}x the nominal {nominal:.3g} (physical"
+            f"{what} K = {k:.3g}, "
+            + (f"{k / nominal:.3g}x" if math.isfinite(k) else "not a finite multiple of")
+            + f" the nominal {nominal:.3g} (physical"
             f" pads lie within {cfg.max_k_ratio:g}x of it): the training log is likely"
             " implausible (see the other warnings)",
         )
