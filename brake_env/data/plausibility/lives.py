@@ -14,20 +14,32 @@ from brake_env.model.atlas import Atlas
 from brake_env.model.regime import WearRegime
 from brake_env.model.wear import WearModel
 
+CHUNK = 1 << 14  # rows per atlas profile call: ~80 MB of corners at 80 layers
+
 
 def end_volumes(
-    log: pd.DataFrame, atlas: Atlas, rows: NDArray[np.intp], cfg: PlausibilityConfig
+    log: pd.DataFrame,
+    atlas: Atlas,
+    rows: NDArray[np.intp],
+    group: NDArray[np.intp],
+    n_groups: int,
+    cfg: PlausibilityConfig,
 ) -> F64:
-    """The pad volume most likely at ``rows`` (one group of events of one run, last ones):
-    the layer whose atlas temperatures at the events' conditions fit their readings best,
-    Gaussian noise ``temp_sigma_c`` plus the slope noise through the atlas (the twin's
-    reverse inference, without a prior on K)."""
-    temp_at, dslope, ok = atlas_profiles(log, atlas, rows)
-    t = log["temp_c"].to_numpy(dtype=np.float64)[rows]
-    var = (dslope * cfg.slope_sigma_rad) ** 2 + cfg.temp_sigma_c**2
-    ll = -0.5 * ((np.where(ok > 0, t, 0.0)[:, None] - temp_at) ** 2 / var + np.log(var))
-    ll *= ok[:, None]
-    return float(atlas.volumes[int(np.argmax(ll.sum(axis=0)))])  # type: ignore[return-value]
+    """The pad volume most likely over each group of ``rows`` (``group``: the group of each
+    row, e.g. a run's last events): the layer whose atlas temperatures at the events'
+    conditions fit their readings best, Gaussian noise ``temp_sigma_c`` plus the slope noise
+    through the atlas (the twin's reverse inference, without a prior on K). In chunks of
+    ``CHUNK`` rows, so a fleet's worth of runs fits in memory."""
+    sums = np.zeros((n_groups, atlas.n_layers))
+    temp = log["temp_c"].to_numpy(dtype=np.float64)
+    for c0 in range(0, rows.size, CHUNK):
+        r = rows[c0 : c0 + CHUNK]
+        temp_at, dslope, ok = atlas_profiles(log, atlas, r)
+        var = (dslope * cfg.slope_sigma_rad) ** 2 + cfg.temp_sigma_c**2
+        ll = -0.5 * ((np.where(ok > 0, temp[r], 0.0)[:, None] - temp_at) ** 2 / var + np.log(var))
+        ll *= ok[:, None]
+        np.add.at(sums, group[c0 : c0 + CHUNK], ll)
+    return np.asarray(atlas.volumes[np.argmax(sums, axis=1)], dtype=np.float64)
 
 
 def lives(log: pd.DataFrame, atlas: Atlas, cfg: PlausibilityConfig) -> list[Finding]:
@@ -63,11 +75,14 @@ def _unmarked_censoring(
     counts = np.bincount(codes, minlength=names.size)
     starts = np.r_[0, np.cumsum(counts)[:-1]]
     v_end = np.full(names.size, np.nan)
-    for r in np.flatnonzero(check & (counts >= 10)):
+    runs = np.flatnonzero(check & (counts >= 10))
+    if runs.size:
         # The last events, no more than 2% of the run: over them the pad wears little.
-        n = min(cfg.end_events, max(10, counts[r] // 50))
-        rows = order[starts[r] + counts[r] - n : starts[r] + counts[r]]
-        v_end[r] = end_volumes(log, atlas, rows, cfg)
+        take = np.minimum(cfg.end_events, np.maximum(10, counts[runs] // 50))
+        group = np.repeat(np.arange(runs.size), take)
+        j = np.arange(take.sum()) - np.repeat(np.cumsum(take) - take, take)
+        rows = order[(starts + counts)[runs][group] - take[group] + j]
+        v_end[runs] = end_volumes(log, atlas, rows, group, runs.size, cfg)
     fv = atlas.failure_volume
     flagged = np.isfinite(v_end) & (v_end > fv + cfg.censor_margin)
     if not flagged.any():

@@ -14,6 +14,8 @@ from brake_env.model.atlas import Atlas
 
 F64 = NDArray[np.float64]
 KELVIN = 273.15
+MAX_SAMPLED = 200_000  # events the response check reads in all, whatever the fleet's size
+CHUNK = 1 << 14  # events per atlas profile call: ~80 MB of corners at 80 layers
 UNIT_SHARE = 0.2  # share of a run outside the envelope that flags it when a unit slip fits
 
 
@@ -150,11 +152,15 @@ def response(
     names: NDArray[np.str_],
     cfg: PlausibilityConfig,
 ) -> list[Finding]:
-    rows = _sample(codes, names.size, cfg.sample_events)
-    temp_at, _, ok = atlas_profiles(log, atlas, rows)
+    # Up to sample_events per run, and no more than MAX_SAMPLED in all (a large fleet).
+    per_run = max(5, min(cfg.sample_events, MAX_SAMPLED // max(names.size, 1)))
+    rows = _sample(codes, names.size, per_run)
+    lo, hi, valid = np.empty(rows.size), np.empty(rows.size), np.empty(rows.size, dtype=bool)
+    for c0 in range(0, rows.size, CHUNK):  # bounded memory: (rows, 8 corners, layers)
+        temp_at, _, ok = atlas_profiles(log, atlas, rows[c0 : c0 + CHUNK])
+        lo[c0 : c0 + CHUNK], hi[c0 : c0 + CHUNK] = temp_at.min(axis=1), temp_at.max(axis=1)
+        valid[c0 : c0 + CHUNK] = ok > 0
     t = log["temp_c"].to_numpy(dtype=np.float64)[rows]
-    lo, hi = temp_at.min(axis=1), temp_at.max(axis=1)
-    valid = ok > 0
 
     def far(v: F64) -> NDArray[np.bool_]:
         return valid & ((v < lo - cfg.temp_margin_c) | (v > hi + cfg.temp_margin_c))
