@@ -39,6 +39,7 @@ import numpy as np
 import pandas as pd
 
 import brake_env  # noqa: F401  # registers BrakeWear-v0
+from baselines.mlp import MLPConfig, MLPPredictor
 from baselines.physics import PhysicsPredictor
 from baselines.window import WindowPredictor
 from brake_env.cli.main import main as brakewear
@@ -105,7 +106,8 @@ class World:
     atlas: Atlas
     atlas_file: Path
     data: Any
-    fitted: dict[str, Predictor]
+    fitted: dict[str, Predictor]  # run over logs
+    models: dict[str, Predictor]  # saved and edited: the fitted ones and the MLP
     tmp: Path
 
 
@@ -120,8 +122,9 @@ def build_world(tmp: Path, seed: int) -> World:
         "window": WindowPredictor().fit(train),
         "none": NoPrognostics().fit(train),
     }
+    models = {**fitted, "data": MLPPredictor(MLPConfig(epochs=1)).fit(train)}
     write_dataset(data, tmp / "data", ("parquet",))
-    return World(atlas, atlas.save(tmp / "atlas.npz"), data, fitted, tmp)
+    return World(atlas, atlas.save(tmp / "atlas.npz"), data, fitted, models, tmp)
 
 
 def finite_estimates(n: int) -> Callable[[pd.DataFrame], bool]:
@@ -212,7 +215,7 @@ def gap_cases(w: World) -> list[Case]:
 # ------------------------------------------------------------------------- saved models
 def model_cases(w: World) -> list[Case]:
     cases = []
-    for name, pred in w.fitted.items():
+    for name, pred in w.models.items():
         path = save_predictor(pred, w.tmp / "models" / name, w.atlas)
         other = "physics" if name != "physics" else "twin"
         edits: dict[str, tuple[str, Callable[[dict[str, Any]], None] | None, Any]] = {
