@@ -238,8 +238,7 @@ def run_metrics(est: RULEstimate, events: EventBatch, cfg: EvaluationConfig) -> 
     rul = est.rul_mean
     life = m.life_events(true)
     conv = {
-        f"{t:g}": _event_of(events, m.convergence_event(rul, true, t, life))
-        for t in cfg.tolerances
+        f"{t:g}": _event_of(events, m.convergence_event(rul, true, t, life)) for t in cfg.tolerances
     }
     res: dict[str, Any] = {
         "life_events": life,
