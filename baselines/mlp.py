@@ -39,7 +39,7 @@ from numpy.typing import NDArray
 from torch import nn
 
 from baselines._runs import rul_targets, training_runs
-from brake_env._validate import check_positive, from_dict
+from brake_env._validate import check_positive, check_state, from_dict
 from brake_env.prognostics.fleet import RowFleet
 from brake_env.prognostics.protocol import EventBatch, Predictor, RULEstimate
 
@@ -279,6 +279,17 @@ class MLPPredictor(Predictor):
             raise ValueError(
                 f"data: not a version-{STATE_VERSION} MLP state of features {list(FEATURES)}"
             )
+        check_state(
+            "data",
+            meta,
+            {},
+            meta_keys=("state_version", "features", "x_mean", "x_std", "y_scale", "config"),
+            optional_meta=("loss_history", "fit_seconds"),
+            finite=("x_mean", "x_std", "y_scale"),
+        )
+        check_state("data", {}, arrays, optional_arrays=arrays, finite=arrays)
+        if not isinstance(meta["config"], dict) or "hidden" not in meta["config"]:
+            raise ValueError("data: the saved setting 'config' is not an MLP config; refit")
         cfg = from_dict(MLPConfig, {**meta["config"], "hidden": tuple(meta["config"]["hidden"])})
         net = build_network(len(FEATURES), cfg.hidden, torch.Generator().manual_seed(0))
         want = set(net.state_dict())

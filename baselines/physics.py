@@ -39,6 +39,7 @@ from numpy.typing import NDArray
 
 from baselines._censoring import Evidence, fit_normal
 from baselines._runs import TrainingRuns, training_runs
+from brake_env._validate import check_state
 from brake_env.model.atlas import Atlas
 from brake_env.model.materials import hardness_mpa
 from brake_env.model.wear import WearModel
@@ -169,6 +170,9 @@ class PhysicsPredictor(Predictor):
     def _at_rows(self, events: EventBatch, want: NDArray[np.bool_]) -> RULEstimate:
         return self._estimate(events.event[want])
 
+    def fitted_wear_coeff(self) -> float | None:
+        return self.k_avg
+
     def get_state(self) -> tuple[dict[str, Any], dict[str, NDArray[Any]]]:
         if self.k_avg is None:
             raise RuntimeError("physics: nothing to save, call fit() or set_k() first")
@@ -184,6 +188,18 @@ class PhysicsPredictor(Predictor):
         return meta, arrays
 
     def set_state(self, meta: Mapping[str, Any], arrays: Mapping[str, NDArray[Any]]) -> None:
+        check_state(
+            "physics",
+            meta,
+            arrays,
+            meta_keys=("k_avg", "k_std", "volume_noise"),
+            optional_arrays=("run_ids", "k_runs"),
+            finite=("k_avg", "k_std", "volume_noise"),  # k_runs: NaN for a censored run
+        )
+        if ("run_ids" in arrays) != ("k_runs" in arrays):
+            raise ValueError(
+                "physics: the saved arrays need both 'run_ids' and 'k_runs', or neither"
+            )
         self.volume_noise = float(meta["volume_noise"])
         self.k_std = None if meta.get("k_std") is None else float(meta["k_std"])
         self.k_runs = None

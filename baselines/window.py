@@ -45,7 +45,7 @@ from baselines._censoring import Evidence
 from baselines._rate_prior import RatePrior
 from baselines._rolling import RollingSums
 from baselines._runs import training_runs
-from brake_env._validate import check_positive, from_dict
+from brake_env._validate import check_positive, check_state, from_dict
 from brake_env.prognostics.fleet import SlotFleet
 from brake_env.prognostics.protocol import MEASURED, EventBatch, Predictor, RULEstimate
 
@@ -322,6 +322,19 @@ class WindowPredictor(Predictor):
     def set_state(self, meta: Mapping[str, Any], arrays: Mapping[str, NDArray[Any]]) -> None:
         if meta.get("state_version") != STATE_VERSION or meta.get("channels") != list(MEASURED):
             raise ValueError(f"window: not a version-{STATE_VERSION} state of {list(MEASURED)}")
+        check_state(
+            "window",
+            meta,
+            arrays,
+            meta_keys=("state_version", "channels", "config", "block_events", "prior", *_SCALARS),
+            array_keys=("z_mean", "z_std", "coef"),
+            finite=("z_mean", "z_std", "coef", "block_events", *_SCALARS),
+        )
+        pr = meta["prior"]
+        if pr is not None:
+            check_state("window prior", pr, {}, meta_keys=("mean", "scale", "dof"), finite=pr)
+        if pr is None or not int(meta["block_events"]) >= 1:
+            raise ValueError("window: the saved state has no prior or no block_events >= 1; refit")
         self.config = from_dict(WindowConfig, dict(meta["config"]))
         n_basis = basis(np.zeros((1, len(MEASURED)))).shape[1]
         coef = np.asarray(arrays["coef"], dtype=np.float64)

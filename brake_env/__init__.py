@@ -15,7 +15,7 @@ __version__ = "0.1.0"
 if "BrakeWear-v0" not in registry:
     register(
         id="BrakeWear-v0",
-        entry_point="brake_env.env.brake_wear:BrakeWearEnv",
+        entry_point="brake_env.env.brake_wear:make_env",
         vector_entry_point="brake_env.env.vector:BrakeWearVectorEnv",
         disable_env_checker=False,
     )

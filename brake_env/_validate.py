@@ -4,7 +4,10 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Iterable, Mapping
 from typing import Any, TypeVar
+
+import numpy as np
 
 T = TypeVar("T")
 
@@ -53,3 +56,61 @@ def from_dict(cls: type[T], data: dict[str, Any]) -> T:
             f"{cls.__name__}: unknown parameter(s) {unknown}; valid are {sorted(fields)}"
         )
     return cls(**data)
+
+
+def check_state(
+    who: str,
+    meta: Mapping[str, Any],
+    arrays: Mapping[str, Any],
+    *,
+    meta_keys: Iterable[str] = (),
+    optional_meta: Iterable[str] = (),
+    array_keys: Iterable[str] = (),
+    optional_arrays: Iterable[str] = (),
+    finite: Iterable[str] = (),
+) -> None:
+    """A saved predictor state (``get_state``'s settings and arrays) against the
+    predictor's own schema, before anything is restored: one ``ValueError`` naming the field.
+
+    Args:
+        who: The predictor's name, for the message.
+        meta, arrays: The saved settings and arrays.
+        meta_keys, optional_meta: Settings that must / may be there; any other is refused.
+        array_keys, optional_arrays: The same for arrays.
+        finite: Settings or arrays that must hold finite numbers where present (a number,
+            a list of numbers or a numeric array; None passes for an optional setting).
+    """
+    _check_keys(who, "setting", meta, set(meta_keys), set(optional_meta))
+    _check_keys(who, "array", arrays, set(array_keys), set(optional_arrays))
+    for name in finite:
+        where = arrays if name in arrays else meta
+        if name not in where or where[name] is None:
+            continue
+        try:
+            x = np.asarray(where[name], dtype=np.float64)
+        except (TypeError, ValueError):
+            raise ValueError(
+                f"{who}: saved {'array' if where is arrays else 'setting'} {name!r} is not"
+                f" numeric ({type(where[name]).__name__}); the model is damaged: refit it"
+            ) from None
+        bad = int(np.size(x) - np.isfinite(x).sum())
+        if bad:
+            raise ValueError(
+                f"{who}: saved {'array' if where is arrays else 'setting'} {name!r} holds"
+                f" {bad} non-finite value(s) of {np.size(x)}; the model is damaged: refit it"
+            )
+
+
+def _check_keys(
+    who: str, kind: str, got: Mapping[str, Any], required: set[str], optional: set[str]
+) -> None:
+    missing = sorted(required - set(got))
+    unknown = sorted(set(got) - required - optional)
+    if missing or unknown:
+        parts = ([f"lacks {missing}"] if missing else []) + (
+            [f"has unknown {unknown}"] if unknown else []
+        )
+        raise ValueError(
+            f"{who}: saved {kind}s: the state {' and '.join(parts)}; a {who} state has {kind}s"
+            f" {sorted(required | optional)} (a model of another predictor, or an edited one?)"
+        )

@@ -43,6 +43,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
+from brake_env._validate import check_state
 from brake_env.model.atlas import Atlas
 from brake_env.model.wear import WearModel
 from brake_env.prognostics.protocol import EventBatch, Predictor, RULEstimate
@@ -105,6 +106,10 @@ class DigitalTwin(Predictor):
     def _fit(self, train_log: pd.DataFrame) -> None:
         self.set_calibration(fit_calibration(self.atlas, train_log, self.config, self.wear))
 
+    def fitted_wear_coeff(self) -> float | None:
+        """The prior's median K (None before fit)."""
+        return None if self.calibration is None else math.exp(self.calibration.k_log_mean)
+
     def get_state(self) -> tuple[dict[str, Any], dict[str, NDArray[Any]]]:
         """The configuration and the calibration as JSON-able dicts (inf as ``"inf"``); the
         grid is rebuilt from them."""
@@ -112,9 +117,7 @@ class DigitalTwin(Predictor):
         return {"config": _jsonable(dataclasses.asdict(self.config)), "calibration": cal}, {}
 
     def set_state(self, meta: Mapping[str, Any], arrays: Mapping[str, NDArray[Any]]) -> None:
-        missing = [k for k in ("config", "calibration") if k not in meta]
-        if missing:
-            raise ValueError(f"twin.set_state: the saved state lacks {missing}")
+        check_state("twin", meta, arrays, meta_keys=("config", "calibration"))
         self.config = TwinConfig(**_floats(meta["config"], TwinConfig))
         self.calibration, self.grid = None, None
         if meta["calibration"] is not None:
@@ -156,13 +159,22 @@ def _jsonable(d: dict[str, Any]) -> dict[str, Any]:
     return {k: str(v) if isinstance(v, float) and not math.isfinite(v) else v for k, v in d.items()}
 
 
-def _floats(d: Mapping[str, Any], cls: type) -> dict[str, Any]:
-    """A saved dict of ``cls`` fields back to its types, unknown names refused."""
+def _floats(d: Any, cls: type) -> dict[str, Any]:
+    """A saved dict of ``cls`` fields back to its types: unknown or missing names and
+    values that are not numbers refused, by name (the dataclass checks the ranges)."""
+    if not isinstance(d, Mapping):
+        raise ValueError(f"twin: the saved {cls.__name__} is {type(d).__name__}, not a dict")
     names = {f.name: f.type for f in dataclasses.fields(cls)}
-    unknown = sorted(set(d) - set(names))
-    if unknown:
-        raise ValueError(f"twin.set_state: unknown {cls.__name__} field(s) {unknown}")
-    return {k: float(v) if names[k] == "float" else v for k, v in d.items()}
+    check_state(f"twin {cls.__name__}", d, {}, meta_keys=names)
+    out = {}
+    for k, v in d.items():
+        if names[k] == "float":
+            try:
+                v = float(v)  # inf travels as "inf"
+            except (TypeError, ValueError):
+                raise ValueError(f"twin: saved {cls.__name__}.{k} is {v!r}, not a number") from None
+        out[k] = v
+    return out
 
 
 def make_twin(atlas: Atlas, seed: int = 0) -> DigitalTwin:

@@ -58,6 +58,17 @@ def add_common_args(sp: argparse.ArgumentParser, out_default: str) -> None:
     sp.add_argument("--quiet", action="store_true", help="no progress bars")
 
 
+def add_strict_arg(sp: argparse.ArgumentParser) -> None:
+    """``--strict``: plausibility findings are errors (:mod:`brake_env.data.plausibility`)."""
+    sp.add_argument(
+        "--strict",
+        action="store_true",
+        help="stop on implausible data (readings in other units, runs counted as failures"
+        " whose readings say otherwise, lives too short, fitted K far from physical) instead"
+        " of warning",
+    )
+
+
 def add_runner_args(sp: argparse.ArgumentParser, workers: int = 0) -> None:
     """Where the command's independent units run (:class:`~brake_env.runner.Runner`)."""
     sp.add_argument(

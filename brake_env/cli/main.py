@@ -5,11 +5,13 @@ from __future__ import annotations
 import argparse
 import importlib
 import sys
+import warnings
 from collections.abc import Callable, Sequence
 from typing import Any
 
 from brake_env.cli import demo, simulate
 from brake_env.cli.common import plugins
+from brake_env.data.plausibility import PlausibilityWarning
 from brake_env.prognostics.commands import evaluate, fit_predict
 
 
@@ -38,7 +40,18 @@ def command(func: Callable[[argparse.Namespace], Any] | str) -> Callable[..., An
     return getattr(importlib.import_module(module), name)
 
 
+def _format_warning(message: Any, category: type[Warning], *rest: Any, **kw: Any) -> str:
+    """Plausibility warnings as one line for the terminal; others as Python prints them."""
+    if issubclass(category, PlausibilityWarning):
+        return f"brakewear {message} (warning; --strict makes it an error)\n"
+    return _PYTHON_FORMAT(message, category, *rest, **kw)
+
+
+_PYTHON_FORMAT = warnings.formatwarning
+
+
 def main(argv: Sequence[str] | None = None) -> int:
+    warnings.formatwarning = _format_warning
     args = build_parser().parse_args(argv)
     run = command(args.func)
     try:

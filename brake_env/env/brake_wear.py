@@ -25,6 +25,44 @@ _OBS_LOW = np.array([0.0, 0.0, -np.pi / 2, 0.0, -273.15, 0.0, 0.0], dtype=np.flo
 _OBS_HIGH = np.array([200.0, 1e6, np.pi / 2, 1e9, 3000.0, 1e4, 0.0], dtype=np.float32)
 
 _ATLASES: dict[tuple[str, str | None], Atlas] = {}
+NO_HUMAN_MODE = (
+    "BrakeWear-v0 has no 'human' render mode (its render_modes are 'ansi' and 'rgb_array');"
+    " use render_mode='rgb_array' and show the frames, or wrap that env in"
+    " gymnasium.wrappers.HumanRendering yourself (it needs pygame)"
+)
+
+
+def check_action(action: Any) -> int:
+    """``action`` as 0 (keep) or 1 (replace), or one clear error: an element of
+    ``Discrete(2)`` is an int or a 0-d integer array (Gymnasium's ``Discrete.contains``),
+    so ``1.0``, ``True``-like arrays and ``[0, 1]`` are refused, not guessed at."""
+    if isinstance(action, np.ndarray | np.generic) and action.shape != ():
+        raise ValueError(
+            "BrakeWear-v0: step() takes one action, 0 (keep) or 1 (replace), not an array of"
+            f" shape {action.shape} (a vector env takes one per sub-environment)"
+        )
+    if not isinstance(action, int | np.integer | np.ndarray) or (
+        isinstance(action, np.ndarray) and action.dtype.kind not in "iu"
+    ):
+        raise ValueError(
+            f"BrakeWear-v0: action must be the int 0 (keep) or 1 (replace) of Discrete(2),"
+            f" got {action!r} ({type(action).__name__})"
+        )
+    if int(action) not in (KEEP, REPLACE):
+        raise ValueError(f"BrakeWear-v0: action must be 0 (keep) or 1 (replace), got {action!r}")
+    return int(action)
+
+
+def make_env(**kwargs: Any) -> gym.Env[Any, Any]:
+    """The registered entry point of ``BrakeWear-v0``: :class:`BrakeWearEnv` made from
+    ``gym.make``'s keywords. A function, so ``gym.make`` leaves ``render_mode`` to the env:
+    it would otherwise wrap ``"human"`` in its pygame window instead of saying the env has
+    no such mode. ``"rgb_array_list"`` and ``"ansi_list"`` collect the frames, as
+    ``gym.make`` does for an env class."""
+    mode = kwargs.get("render_mode")
+    if isinstance(mode, str) and mode.endswith("_list") and mode[:-5] in ("ansi", "rgb_array"):
+        return gym.wrappers.RenderCollection(BrakeWearEnv(**{**kwargs, "render_mode": mode[:-5]}))
+    return BrakeWearEnv(**kwargs)
 
 
 def default_atlas(preset: str = "hot-duty", cache_dir: str | None = None) -> Atlas:
@@ -143,6 +181,8 @@ class BrakeWearEnv(gym.Env[NDArray[np.float32], np.int64]):
         **kwargs: Any,
     ) -> None:
         self.config = EnvConfig.from_kwargs(config, **kwargs)
+        if render_mode == "human":
+            raise ValueError(NO_HUMAN_MODE)
         if render_mode not in (None, *self.metadata["render_modes"]):
             raise ValueError(
                 "BrakeWear-v0: render_mode must be None, 'ansi' or 'rgb_array',"
@@ -173,11 +213,9 @@ class BrakeWearEnv(gym.Env[NDArray[np.float32], np.int64]):
     def step(
         self, action: np.int64 | int
     ) -> tuple[NDArray[np.float32], SupportsFloat, bool, bool, dict[str, Any]]:
-        if action not in (KEEP, REPLACE):
-            raise ValueError(
-                f"BrakeWear-v0: action must be 0 (keep) or 1 (replace), got {action!r}"
-            )
-        info = self._service.step(bool(action == REPLACE))
+        if self._service.pad is None:
+            raise RuntimeError("BrakeWear-v0: call reset() before step()")
+        info = self._service.step(check_action(action) == REPLACE)
         self._last_info = info
         if self._dashboard is not None:
             self._dashboard.record(info)

@@ -17,6 +17,14 @@ from brake_env._validate import check_nonnegative, check_range, from_dict
 from brake_env.model.regime import Label, WearRegime
 from brake_env.model.simulator import SensorNoise
 
+
+class UnknownArgumentError(TypeError, ValueError):
+    """An env keyword that does not exist. A ``TypeError``, as Python raises for an
+    unexpected keyword, so clients that probe optional keywords and retry without them on a
+    ``TypeError`` (TorchRL's ``GymEnv`` passes ``frameskip``) work; a ``ValueError`` as
+    before, for callers that catch bad arguments as one kind."""
+
+
 REGIMES = ("id", "ood", "mixed")
 PRESETS = ("hot-duty", "cold-start")
 MAX_DECISION_INTERVAL = 10_000  # well below the shortest pad life (~7e4 events at +6 sigma)
@@ -196,8 +204,9 @@ class EnvConfig:
         names = {f.name for f in dataclasses.fields(cls)}
         unknown = sorted(set(kwargs) - names)
         if unknown:
-            raise ValueError(
-                f"BrakeWear-v0: unknown argument(s) {unknown}; valid are {sorted(names)}"
+            raise UnknownArgumentError(
+                f"BrakeWear-v0: got an unexpected keyword argument {unknown[0]!r} (unknown"
+                f" argument(s) {unknown}; valid are {sorted(names)})"
             )
         if isinstance(kwargs.get("costs"), dict):
             kwargs["costs"] = from_dict(CostWeights, kwargs["costs"])

@@ -237,7 +237,9 @@ def run_metrics(est: RULEstimate, events: EventBatch, cfg: EvaluationConfig) -> 
     true = events.rul_events.astype(np.float64)
     rul = est.rul_mean
     life = m.life_events(true)
-    conv = {f"{t:g}": m.convergence_event(rul, true, t, life) for t in cfg.tolerances}
+    conv = {
+        f"{t:g}": _event_of(events, m.convergence_event(rul, true, t, life)) for t in cfg.tolerances
+    }
     res: dict[str, Any] = {
         "life_events": life,
         "rul_rmse": m.rmse(rul, true),
@@ -255,7 +257,7 @@ def run_metrics(est: RULEstimate, events: EventBatch, cfg: EvaluationConfig) -> 
         res["volume_rmse"] = m.rmse(est.volume_frac, events.volume_frac)
     if est.wear_coeff is not None and events.wear_coeff is not None:
         err = m.relative_error(est.wear_coeff, events.wear_coeff)
-        k_conv = m.converged_within(err, cfg.k_tolerance)
+        k_conv = _event_of(events, m.converged_within(err, cfg.k_tolerance))
         res["k_rel_error"] = {
             "mean": float(np.mean(err)),
             "final": float(err[-1]),
@@ -288,6 +290,13 @@ def _test_runs(split: str, log: pd.DataFrame) -> list[tuple[str, EventBatch]]:
                 " start at pad installation (event 0)"
             )
     return runs
+
+
+def _event_of(events: EventBatch, row: int) -> int:
+    """The event index of a run's row ``row`` (``len``: the end of the run): the same number
+    on a full log from event 0, and on a log with gaps the event, not the row (protocol
+    module docstring, "Gaps")."""
+    return int(events.event[row]) if row < len(events) else int(events.event[-1]) + 1
 
 
 def _split_info(runs: list[tuple[str, EventBatch]]) -> dict[str, Any]:

@@ -231,9 +231,9 @@ class SlotFleet(Fleet):
     """A fleet whose pads' carried state lives in arrays indexed by slot.
 
     ``update`` checks a fleet update the way :meth:`Predictor.update` checks one pad's batch
-    (the first batch after a reset starts at any event, later ones continue where the
-    previous one ended), all slots at once and before any state changes; subclasses compute
-    the estimates of all pads together in ``_update``.
+    (the first batch after a reset starts at any event, later ones after the previous one
+    ended, with or without a gap), all slots at once and before any state changes;
+    subclasses compute the estimates of all pads together in ``_update``.
 
     Args:
         name: The predictor's name, for messages.
@@ -274,13 +274,15 @@ class SlotFleet(Fleet):
             )
         first = events.event[starts]
         expected = self._next_event[slots]
-        bad = np.flatnonzero((first < 0) | ((expected >= 0) & (first != expected)))
+        # A batch may start after its slot's next event (a gap: events braked, not logged;
+        # protocol module docstring, "Gaps"), never before it.
+        bad = np.flatnonzero((first < 0) | ((expected >= 0) & (first < expected)))
         if bad.size:
             i = int(bad[0])
             raise ValueError(
                 f"{self.name}: slot {int(slots[i])}'s batch starts at event {int(first[i])},"
-                f" expected {int(expected[i]) if expected[i] >= 0 else '>= 0'} (reset a slot"
-                " when its pad is installed)"
+                f" expected {'>= ' + str(int(expected[i])) if expected[i] >= 0 else '>= 0'}"
+                " (reset a slot when its pad is installed)"
             )
         if summarise is None:
             want = last_rows(pads)

@@ -149,8 +149,16 @@ def load_predictor(path: str | os.PathLike[str], atlas: Atlas) -> Predictor:
     header = read_header(path)
     check_atlas(header, atlas.content_hash, path)
     arrays = read_arrays(path / ARRAYS, str(header["arrays_sha256"]), f"model {path}")
-    predictor = make_predictor(str(header["predictor"]), atlas, int(header.get("seed", 0)))
-    predictor.set_state(_decode(header["meta"]), arrays)
+    name = str(header["predictor"])
+    predictor = make_predictor(name, atlas, int(header.get("seed", 0)))
+    try:
+        predictor.set_state(_decode(header["meta"]), arrays)
+    except (ValueError, KeyError, TypeError, AttributeError, IndexError) as e:
+        # Each predictor checks its own schema; the others' lookups are the safety net.
+        raise ValueError(
+            f"model {path}: {HEADER} names predictor {name!r}, and the saved state does not"
+            f" fit it: {e if isinstance(e, ValueError) else repr(e)}"
+        ) from None
     return predictor
 
 

@@ -9,6 +9,18 @@ the environment (batches of ``decision_interval`` events) or over a whole logged
 Events travel as an :class:`EventBatch`: numpy arrays named like the event-log columns
 (README "Event-log schema"), so a predictor written against logs runs unchanged online.
 Ground-truth columns are present in simulated data and used only by :class:`Oracle`.
+
+Gaps. ``event`` counts braking events since the pad was installed, and it may skip
+indices (the schema allows it; real loggers drop events). Every predictor reads a gap the
+same way: the missing events were braked but not logged, so the pad wore on through them.
+Nothing was measured about them, so they are taken as drawn from the pad's operating mix:
+each wears the expected amount per event for what the predictor believes about the pad
+(the twin: the wear path ``K * n`` of each K of its posterior; the physics line: its fixed
+rate; the window model and the MLP: the event index, which counts the gap). An estimate
+after event ``n`` is the RUL counted from event ``n``, the last one logged, and it is
+exactly the estimate the same predictor gives after ``n`` on the full log, except that the
+evidence of the missing events is missing (the posterior is wider, the windows hold fewer
+events). A gap longer than the life the predictor believes in gives RUL 0, not an error.
 """
 
 from __future__ import annotations
@@ -21,6 +33,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
+from brake_env._validate import check_state
 from brake_env.data.schema import FAILED
 from brake_env.prognostics.events import (
     F64,
@@ -86,7 +99,9 @@ class Predictor(ABC):
 
         ``event`` counts from the pad's installation, so the first batch after ``reset``
         may start anywhere: a log that starts mid-life (first row at event 30,000) means
-        30,000 events nobody logged. Later batches continue where the previous one ended.
+        30,000 events nobody logged. Events may skip indices, within a batch or between
+        batches: the skipped events were braked but not logged, and the pad wore on (the
+        module docstring, "Gaps"). They never go back.
         """
         if len(events) == 0:
             raise ValueError(f"{self.name}: update() needs at least one event")
@@ -94,10 +109,16 @@ class Predictor(ABC):
         if self._next_event is None:
             if first < 0:
                 raise ValueError(f"{self.name}: event indices start at 0, got {first}")
-        elif first != self._next_event:
+        elif first < self._next_event:
             raise ValueError(
-                f"{self.name}: batch starts at event {first}, expected"
-                f" {self._next_event} (call reset() when a pad is installed)"
+                f"{self.name}: batch starts at event {first}, but the previous batch ended at"
+                f" event {self._next_event - 1} (call reset() when a pad is installed)"
+            )
+        if len(events) > 1 and np.any(np.diff(events.event) <= 0):
+            i = int(np.flatnonzero(np.diff(events.event) <= 0)[0]) + 1
+            raise ValueError(
+                f"{self.name}: events must increase within a batch (event"
+                f" {int(events.event[i])} after {int(events.event[i - 1])})"
             )
         est = self._update(events)
         if len(est) != len(events):
@@ -120,6 +141,12 @@ class Predictor(ABC):
         """Restore what :meth:`get_state` returned, on a predictor made by the same factory."""
         raise NotImplementedError(f"{self.name}: this predictor cannot be loaded")
 
+    def fitted_wear_coeff(self) -> float | None:
+        """The typical wear coefficient K fitting learned, for the plausibility check of
+        fitted parameters (:func:`brake_env.data.plausibility.check_wear_coeff`); None when
+        the predictor learns no K or is not fitted."""
+        return None
+
     def _fit(self, train_log: pd.DataFrame) -> None:  # noqa: B027 - optional hook
         pass
 
@@ -139,7 +166,7 @@ class Oracle(Predictor):
         return {}, {}  # nothing learned: it reads the truth
 
     def set_state(self, meta: Mapping[str, Any], arrays: Mapping[str, NDArray[Any]]) -> None:
-        pass
+        check_state("oracle", meta, arrays)  # nothing learned: nothing may be there
 
     def _update(self, events: EventBatch) -> RULEstimate:
         if events.rul_events is None:
@@ -187,7 +214,11 @@ class NoPrognostics(Predictor):
         return {"mean_life_events": self.mean_life_events}, {}
 
     def set_state(self, meta: Mapping[str, Any], arrays: Mapping[str, NDArray[Any]]) -> None:
-        m = meta.get("mean_life_events")
+        check_state("none", meta, arrays, meta_keys=["mean_life_events"])
+        m = meta["mean_life_events"]
+        # inf is a saved choice (a pad that never wears out); NaN or a word is damage.
+        if m is not None and not (isinstance(m, int | float) and float(m) > 0):
+            raise ValueError(f"none: saved setting 'mean_life_events' is {m!r}, not a life > 0")
         self.mean_life_events = None if m is None else float(m)
 
     def _update(self, events: EventBatch) -> RULEstimate:

@@ -26,6 +26,7 @@ from brake_env.cli.common import (
     load_atlas,
     make_runner,
 )
+from brake_env.data.plausibility import warn_implausible
 from brake_env.data.schema import read_event_log
 from brake_env.model.atlas import Atlas
 from brake_env.output import write_json, write_text
@@ -54,6 +55,7 @@ def cmd_diagnose(args: argparse.Namespace) -> dict[str, Any]:
         print(f"diagnose: warning: {w}", file=sys.stderr)
 
     atlas = Atlas.load(args.model) if args.model else load_atlas(args)
+    warn_implausible(log, atlas, "diagnose", strict=args.strict)
     cands = None
     if args.candidates:
         reg = registry()

@@ -8,7 +8,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from brake_env.cli.common import add_common_args, add_runner_args, int_at_least
+from brake_env.cli.common import add_common_args, add_runner_args, add_strict_arg, int_at_least
 from sim2real.commands.simulate import add_effect_args
 
 _FMT = argparse.ArgumentDefaultsHelpFormatter
@@ -38,6 +38,7 @@ def _add_diagnose(sub: argparse._SubParsersAction[Any]) -> None:
         help="share of runs used to fit candidate parameters",
     )
     d.add_argument("--no-rul", action="store_true", help="skip the twin's RUL error")
+    add_strict_arg(d)
     d.set_defaults(func="sim2real.commands.cli:cmd_diagnose")
 
 

@@ -231,13 +231,11 @@ def test_fleet_refuses_bad_calls(dataset: Dataset, fitted: DigitalTwin) -> None:
         fleet.update(np.array([0, 0, 0]), a[:2])
     with pytest.raises(ValueError, match="contiguous"):
         fleet.update(np.array([0, 1, 0]), _concat([a[:1], a[:1], a[1:2]]))
-    with pytest.raises(ValueError, match="consecutive"):
-        fleet.update(np.array([0, 0]), _concat([a[:1], a[2:3]]))
     with pytest.raises(ValueError, match="summarise has 1 rows"):
         fleet.update(np.array([0, 0]), a[:2], np.array([True]))
     fleet.update(np.array([1, 1]), a[10:12])  # a pad may start mid-life
-    with pytest.raises(ValueError, match="slot 1's batch starts at event 20, expected 12"):
-        fleet.update(np.array([1]), a[20:21])
+    with pytest.raises(ValueError, match="slot 1's batch starts at event 5, expected >= 12"):
+        fleet.update(np.array([1]), a[5:6])  # a gap is allowed (tests/twin/test_gaps.py)
     with pytest.raises(RuntimeError, match="call fit"):
         DigitalTwin(fitted.atlas, TEST_CONFIG).fleet(2)
 
@@ -262,7 +260,7 @@ def test_state_round_trips_through_json(
     meta, _ = DigitalTwin(atlas, TEST_CONFIG, calibration=gauss).get_state()
     other.set_state(json.loads(json.dumps(meta, allow_nan=False)), {})
     assert other.calibration == gauss and math.isinf(other.calibration.prior_dof)
-    with pytest.raises(ValueError, match="unknown TwinConfig field"):
+    with pytest.raises(ValueError, match=r"TwinConfig.*unknown \['n_grd'\]"):
         other.set_state({"config": {"n_grd": 10}, "calibration": None}, {})
 
 

@@ -23,12 +23,14 @@ from tqdm import tqdm
 from brake_env.cli.common import (
     add_common_args,
     add_runner_args,
+    add_strict_arg,
     add_wear_args,
     int_at_least,
     load_atlas,
 )
 from brake_env.cli.demo import DemoContext
 from brake_env.data.datasets import DatasetSpec, find_logs
+from brake_env.data.plausibility import warn_fitted, warn_implausible
 from brake_env.data.schema import read_event_log
 from brake_env.model.atlas import Atlas
 from brake_env.prognostics.commands.evaluate_seeds import cmd_evaluate_seeds
@@ -87,6 +89,7 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
     e.add_argument(
         "--mlp-epochs", type=int_at_least(1), default=None, help="MLP epochs (default: its config)"
     )
+    add_strict_arg(e)
     _add_seeds_args(e)
     e.set_defaults(func=cmd_evaluate)
 
@@ -140,6 +143,7 @@ class OneSeed:
         mlp_epochs: The MLP's epochs (None: its config's).
         quiet: No progress bars.
         skip_unfittable: Drop a predictor that fails to fit, saying why (the demo).
+        strict: Implausible data is an error, not a warning.
     """
 
     data: Path
@@ -150,6 +154,7 @@ class OneSeed:
     mlp_epochs: int | None = None
     quiet: bool = False
     skip_unfittable: bool = False
+    strict: bool = False
 
     def __post_init__(self) -> None:
         if not self.predictors:
@@ -182,6 +187,7 @@ class OneSeed:
             args.batch_events,
             args.mlp_epochs,
             args.quiet,
+            strict=bool(getattr(args, "strict", False)),
         )
 
 
@@ -202,11 +208,16 @@ def evaluate_one(run: OneSeed, atlas_of: Callable[[], Atlas]) -> dict[str, Any]:
     read_s = time.perf_counter() - t0
     atlas = atlas_of()
     check_data_atlas(run.data, atlas.content_hash)
+    for split, lg in logs.items():
+        warn_implausible(lg, atlas, f"evaluate {split}", lives=split == "train", strict=run.strict)
     predictors = make_predictors(run.predictors, atlas, run.seed, run.mlp_epochs)
     skipped: dict[str, str] | None = {} if run.skip_unfittable else None
     fit_s = fit_all(predictors, logs["train"], run.quiet, skipped)
     if not predictors:
         raise ValueError(f"no predictor could be fitted: {skipped}")
+    warn_fitted(
+        {n: p.fitted_wear_coeff() for n, p in predictors.items()}, "evaluate", strict=run.strict
+    )
     t0 = time.perf_counter()
     ev = _predict_and_score(predictors, logs, run)
     predict_s = time.perf_counter() - t0

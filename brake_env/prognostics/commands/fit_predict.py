@@ -40,11 +40,13 @@ from tqdm import tqdm
 from brake_env.cli.common import (
     add_common_args,
     add_runner_args,
+    add_strict_arg,
     int_at_least,
     load_atlas,
     make_runner,
 )
 from brake_env.data.datasets import find_logs
+from brake_env.data.plausibility import warn_fitted, warn_implausible
 from brake_env.data.runs import run_ends
 from brake_env.data.schema import read_event_log
 from brake_env.model.atlas import Atlas, AtlasSpec, cached_atlas
@@ -82,6 +84,7 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
     )
     f.add_argument("--predictor", required=True, choices=predictor_names())
     f.add_argument("--atlas", default=None, help="atlas .npz to use instead of the cache")
+    add_strict_arg(f)
     f.set_defaults(func=cmd_fit)
 
     p = sub.add_parser(
@@ -104,6 +107,7 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
         " not depend on where units run; another chunking moves them by rounding, ~1e-13)",
     )
     add_runner_args(p)
+    add_strict_arg(p)
     p.set_defaults(func=cmd_predict)
 
 
@@ -126,6 +130,7 @@ def cmd_fit(args: argparse.Namespace) -> Path:
     path = training_log_path(args.data)
     log = read_event_log(path)
     atlas = load_atlas(args)
+    warn_implausible(log, atlas, "fit", lives=True, strict=args.strict)
     pred = make_predictor(args.predictor, atlas, args.seed)
     if type(pred).get_state is Predictor.get_state:
         raise ValueError(f"predictor {args.predictor!r} cannot be saved (no get_state)")
@@ -136,6 +141,7 @@ def cmd_fit(args: argparse.Namespace) -> Path:
     t0 = time.perf_counter()
     pred.fit(log)
     fit_s = time.perf_counter() - t0
+    warn_fitted({args.predictor: pred.fitted_wear_coeff()}, "fit", strict=args.strict)
     info = {
         "data": str(path),
         "runs": n_runs,
@@ -192,6 +198,7 @@ def cmd_predict(args: argparse.Namespace) -> pd.DataFrame:
     runs = list(iter_runs(log))
     with _open_store(header, args, len(runs)) as store:  # before the long start-up
         atlas = atlas_of()
+        warn_implausible(log, atlas, "predict", strict=args.strict)
         pred = load_predictor(args.model, atlas)
         try:
             traces, rows = _predict_units(pred, (header, atlas), runs, args, store)

@@ -183,7 +183,8 @@ def test_bad_calls() -> None:
     with pytest.raises(ValueError, match="at least one event"):
         fleet.update(np.zeros(0, dtype=np.intp), _run(0, 0))
     fleet.update(np.array([1, 1]), _run(0, 2))
-    with pytest.raises(ValueError, match="expected 2"):
-        fleet.update(np.array([1]), _run(0, 1, start=5))
+    fleet.update(np.array([1]), _run(0, 1, start=5))  # a gap: events 2-4 braked, unlogged
+    with pytest.raises(ValueError, match="event 3, but the previous batch ended at event 5"):
+        fleet.update(np.array([1]), _run(0, 1, start=3))
     with pytest.raises(ValueError, match="batch_events must be >= 0"):
         predict_runs(Running(), [_run(0, 3)], -1)
