@@ -1,5 +1,5 @@
-"""Bad inputs a careful user tries, across fit, predict, evaluate, diagnose, saved models
-and the env, and how each ends (issue 22; README "What is checked").
+"""Bad inputs a careful user tries, across fit, predict, evaluate, diagnose, saved models,
+unit stores and the env, and how each ends (issue 22; README "What is checked").
 
     .venv/bin/python scripts/probe_trust.py [--seed 0] [--verbose]
 
@@ -14,7 +14,8 @@ Outcomes:
 - ``silent wrong answer``: it ran without a warning where it should have failed or warned,
   or its answer is wrong (non-finite estimates, a wrong number of them).
 
-Unit stores are another probe's (issue 22 item 3). The goal is 0 in the last two columns.
+Unit stores (a command's ``OUT/units``): other settings, cut or changed files, a store held
+by a running process or left locked by a dead one. The goal is 0 in the last two columns.
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ import contextlib
 import io
 import json
 import math
+import subprocess
 import sys
 import tempfile
 import time
@@ -42,6 +44,7 @@ import brake_env  # noqa: F401  # registers BrakeWear-v0
 from baselines.mlp import MLPConfig, MLPPredictor
 from baselines.physics import PhysicsPredictor
 from baselines.window import WindowPredictor
+from brake_env import units
 from brake_env.cli.main import main as brakewear
 from brake_env.data.datasets import DatasetSpec, make_dataset, write_dataset
 from brake_env.data.plausibility import PlausibilityWarning, warn_fitted, warn_implausible
@@ -470,6 +473,123 @@ def cli_cases(w: World) -> list[Case]:
     ]
 
 
+# ------------------------------------------------------------------------ unit stores
+def store_cases(w: World) -> list[Case]:
+    """A command's unit store (brake_env.units) after the ways a run can leave it."""
+    keys = ["pads-0000", "pads-0001", "pads-0002"]
+    settings = {"seed": 0, "what": "probe"}
+    result = {"life": np.arange(5), "note": "x"}
+    n = iter(range(10_000))
+
+    def filled() -> Path:
+        d = w.tmp / f"store-{next(n)}"
+        with units.open_store(d, settings, keys, "probe") as st:
+            st.save(keys[0], result)
+            st.save(keys[1], result)
+        return d
+
+    def reopen(d: Path, edit: Callable[[Path], object] = lambda _: None) -> Callable[[], Any]:
+        def run() -> list[str]:
+            edit(d)
+            with units.open_store(d, settings, keys, "probe") as st:
+                got = st.keys()
+                for k in got:
+                    np.testing.assert_array_equal(st.load(k)["life"], result["life"])
+                return got
+
+        return run
+
+    def json_of(d: Path, i: int = 0) -> Path:
+        return sorted(d.glob("pads-000*.json"))[i]
+
+    def cut(d: Path) -> None:
+        f = json_of(d)
+        f.write_bytes(f.read_bytes()[:40])
+
+    def flip_npz(d: Path) -> None:
+        f = json_of(d).with_suffix(".npz")
+        b = bytearray(f.read_bytes())
+        b[len(b) // 2] ^= 0xFF
+        f.write_bytes(bytes(b))
+
+    def rename(d: Path) -> None:
+        f = json_of(d)
+        f.rename(f.with_name("pads-0002-0123456789.json"))
+
+    def other_settings(d: Path) -> Callable[[], Any]:
+        return lambda: units.open_store(d, {**settings, "seed": 1}, keys, "probe")
+
+    def cut_settings(d: Path) -> Callable[[], Any]:
+        def run() -> Any:
+            (d / units.SETTINGS).write_text('{"seed": ')
+            return units.open_store(d, settings, keys, "probe")
+
+        return run
+
+    def held_elsewhere(d: Path) -> Callable[[], Any]:
+        def run() -> Any:
+            code = (
+                "import sys, time; from brake_env import units;"
+                f" s = units.open_store({str(d)!r}, {settings!r}, {keys!r}, 'other');"
+                " print('held', flush=True); time.sleep(30)"
+            )
+            proc = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE, text=True)
+            try:
+                assert proc.stdout is not None and proc.stdout.readline().strip() == "held"
+                return units.open_store(d, settings, keys, "probe")
+            finally:
+                proc.kill()
+                proc.wait()
+
+        return run
+
+    def dead_holder(d: Path) -> Callable[[], Any]:
+        def run() -> list[str]:
+            code = (
+                "import os; from brake_env import units;"
+                f" s = units.open_store({str(d)!r}, {settings!r}, {keys!r}, 'killed');"
+                " os._exit(0)"  # dies without releasing: the lock file still names it
+            )
+            subprocess.run([sys.executable, "-c", code], check=True)
+            return reopen(d)()
+
+        return run
+
+    two = lambda got: got == keys[:2]  # noqa: E731
+    redone = lambda got: keys[0] not in got and keys[1] in got  # noqa: E731
+    return [
+        Case("unit store", "reopened with the same settings", "correct", reopen(filled()), two),
+        Case("unit store", "other settings", "error", other_settings(filled())),
+        Case("unit store", "settings.json cut", "error", cut_settings(filled())),
+        Case(
+            "unit store",
+            "unit JSON cut to 40 bytes: redone",
+            "correct",
+            reopen(filled(), cut),
+            redone,
+        ),
+        Case(
+            "unit store", "unit npz changed: redone", "correct", reopen(filled(), flip_npz), redone
+        ),
+        Case(
+            "unit store",
+            "unit npz deleted: redone",
+            "correct",
+            reopen(filled(), lambda d: json_of(d).with_suffix(".npz").unlink()),
+            redone,
+        ),
+        Case(
+            "unit store",
+            "unit file under another key: set aside",
+            "correct",
+            reopen(filled(), rename),
+            lambda got: got == [keys[1]],
+        ),
+        Case("unit store", "held by a running process", "error", held_elsewhere(filled())),
+        Case("unit store", "lock left by a dead process", "correct", dead_holder(filled()), two),
+    ]
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--seed", type=int, default=0)
@@ -479,6 +599,7 @@ def main() -> int:
     with tempfile.TemporaryDirectory() as d:
         w = build_world(Path(d), args.seed)
         cases = log_cases(w) + gap_cases(w) + model_cases(w) + env_cases(w) + cli_cases(w)
+        cases += store_cases(w)
         results = []
         for c in cases:
             res, detail = outcome(c)
