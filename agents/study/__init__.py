@@ -1,0 +1,1 @@
+"""The cost studies: what policies cost, with paired intervals."""
