@@ -156,7 +156,8 @@ def _after_each(model: ReferenceModel, v: F64, i: int, window: bool) -> dict[int
     # h = 0 the pad fails (corrective fit, the vehicle back next shift: idealised).
     p = v.dtype.type(model.config.breakdown_rate)
     d0 = np.take(v, [0], axis=da)
-    drive = (1 - p) * d0 + p * np.take(v, [model.D - 1], axis=da)
+    # (p = 0 kept apart: 0 * inf, a blocked state of another vehicle, would be nan)
+    drive = d0 if p == 0 else (1 - p) * d0 + p * np.take(v, [model.D - 1], axis=da)
     fail = v.dtype.type(model.fail_cost) + np.take(new, [0], axis=da)
     hot = np.concatenate([fail, np.take(drive, np.arange(model.H), axis=ha)], axis=ha)
     shape = list(hot.shape)
