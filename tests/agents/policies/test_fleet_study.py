@@ -22,7 +22,7 @@ def test_paired_interval_difference_and_ratio():
     assert r.low < 1.2 < r.high and r.point == pytest.approx(a.mean() / b.mean())
     same = paired_interval(b, b, "difference")
     assert (same.point, same.low, same.high) == (0.0, 0.0, 0.0)
-    with pytest.raises(ValueError, match="same length|one length"):
+    with pytest.raises(ValueError, match="one length"):
         paired_interval(a, b[:-1])
     with pytest.raises(ValueError, match="statistic"):
         paired_interval(a, b, "t")  # type: ignore[arg-type]
