@@ -5,7 +5,8 @@ Small fleet: 2 vehicles, 1 needed on the hot route, a half-year episode (365 shi
 every other setting is the env's default (window every 14 shifts, 2 bays, 4 spares at the
 start, lead time 14, breakdowns 0.02 per working shift, costs). The oracle's RUL is the
 closed-form expected RUL on the hot route from the true volume and K
-(``ExpectedRULObservation``; the simulated-ahead oracle predictor is ~20x slower).
+(``ExpectedRULObservation``; ``--rul oracle``: the oracle predictor through
+``FleetRULObservation`` on ``truth=True``, the simulated-ahead RUL, ~20x slower).
 
 1. Each heuristic (agents.policies.fleet) is tuned with Optuna (TPE, seeded) on the tuning
    seeds (``--tune-seeds`` episodes from seed 10_000) for ``--trials`` trials.
@@ -38,7 +39,9 @@ from agents.study.fleet_costs import EpisodeCost, paired_interval, run_episodes
 from agents.study.fleet_tuning import SPACES, tune
 from brake_env.env.fleet.config import FleetConfig
 from brake_env.env.fleet.env import BrakeWearFleetEnv
+from brake_env.env.fleet.wrappers import FleetRULObservation
 from brake_env.output import table, write_json
+from brake_env.prognostics.registry import make_predictor
 
 TUNE_SEED0 = 10_000
 
@@ -66,16 +69,20 @@ def main() -> None:
     ap.add_argument("--tail", type=int, default=200)
     ap.add_argument("--json", default=None)
     ap.add_argument("--markdown", action="store_true")
+    ap.add_argument(
+        "--rul", choices=("closed-form", "oracle"), default="closed-form",
+        help="oracle: the oracle predictor through FleetRULObservation (truth=True; ~20x slower)",
+    )  # fmt: skip
     a = ap.parse_args()
     t0 = time.process_time()
-    cfg = FleetConfig(n_vehicles=2, hot_need=1, episode_shifts=a.shifts)
-    env = ExpectedRULObservation(BrakeWearFleetEnv(cfg))
+    cfg = FleetConfig(n_vehicles=2, hot_need=1, episode_shifts=a.shifts, truth=a.rul == "oracle")
+    env = _rul_env(BrakeWearFleetEnv(cfg), a.rul)
     layout = FleetLayout.of(cfg)
     tune_seeds = list(range(TUNE_SEED0, TUNE_SEED0 + a.tune_seeds))
     eval_seeds = list(range(a.eval_seeds))
     tuned = {name: tune(name, env, layout, tune_seeds, a.trials) for name in SPACES}
     best = min(tuned.values(), key=lambda t: t.tuning_cost)
-    model = ReferenceModel.build(cfg, env.unwrapped.atlas)  # type: ignore[attr-defined]
+    model = ReferenceModel.build(cfg, env.unwrapped.atlas)
     solution = solve(model, a.tail)
     ref = ReferencePolicy(env, model, solution, best.rule.params.s, best.rule.params.S)
     ref_eps = run_episodes(env, ref, eval_seeds, check_masks=True)
@@ -87,7 +94,7 @@ def main() -> None:
         rows.append(_row(name, results[name], ref_eps))
     print(f"Small fleet: 2 vehicles, hot_need 1, {a.shifts} shifts; {a.trials} Optuna trials"
           f" x {a.tune_seeds} tuning episodes per heuristic; {a.eval_seeds} evaluation"
-          f" episodes (seeds 0..{a.eval_seeds - 1}), oracle RUL (closed form)")  # fmt: skip
+          f" episodes (seeds 0..{a.eval_seeds - 1}), oracle RUL ({a.rul})")  # fmt: skip
     cols = list(rows[-1])
     print(table([cols, *([_fmt(r.get(c, "")) for c in cols] for r in rows)], a.markdown))
     _room(best.name, results[best.name], ref_eps)
@@ -102,6 +109,12 @@ def main() -> None:
     if a.json:
         write_json({"rows": rows, "predicted": predicted.tolist(),
                     "tuned": {n: t.params for n, t in tuned.items()}}, a.json)  # fmt: skip
+
+
+def _rul_env(env: BrakeWearFleetEnv, rul: str) -> Any:
+    if rul == "closed-form":
+        return ExpectedRULObservation(env)
+    return FleetRULObservation(env, make_predictor("oracle", env.atlas), fields=("rul_mean",))
 
 
 def _predicted(env: Any, model: ReferenceModel, solution: Any, seed: int) -> float:
