@@ -6,6 +6,13 @@ hot duty). The objective is the mean cost per vehicle-shift over the tuning seed
 trial on the same seeds (common random numbers). Heuristics other than the (s, S) rule and
 the combination keep the default reorder rule (s, S) = (2, 4); the (s, S) heuristic is the
 threshold with its reorder point and level tuned as well.
+
+``standby`` is a combination with its structure fixed: the healthiest vehicles drive the
+hot route, the others are parked (a standby whose pad is not worn), requests are served
+lowest RUL first, and the three replacement limits (anywhere, at a window, in the shop)
+are tuned directly. It is what the reference does on two vehicles (one drives, the other
+waits; pads are changed at windows), found by reading the reference's decisions, and it
+is tuned on the tuning seeds like the others.
 """
 
 from __future__ import annotations
@@ -58,6 +65,16 @@ def _sS(t: Any, lay: FleetLayout, w: int) -> FleetRule:
     return with_parts(_threshold(t, lay, w), "(s, S)", s=s, S=s + t.suggest_int("S_minus_s", 0, 6))
 
 
+def _standby(t: Any, lay: FleetLayout, w: int) -> FleetRule:
+    p = FleetRuleParams(
+        must=t.suggest_float("must", 0.0, 5.0),
+        window_limit=t.suggest_float("window_limit", 0.0, 30.0),
+        shop_limit=t.suggest_float("shop_limit", 0.0, 20.0),
+        greedy=True, duty="rul", spare_duty="park",
+    )  # fmt: skip
+    return FleetRule(lay, p, "standby")
+
+
 def _best(t: Any, lay: FleetLayout, w: int) -> FleetRule:
     must = t.suggest_float("must", 0.0, 20.0)
     s = t.suggest_int("s", 0, 4)
@@ -81,6 +98,7 @@ SPACES: dict[str, Space] = {
     "capacity greedy": _greedy,
     "duty rule": _duty,
     "(s, S)": _sS,
+    "standby": _standby,
     "best combination": _best,
 }
 
