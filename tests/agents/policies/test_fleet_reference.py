@@ -117,7 +117,11 @@ def test_reference_model_rejects_big_fleets():
 
 @pytest.fixture(scope="module")
 def small_fleet():
-    cfg = FleetConfig(n_vehicles=2, hot_need=1, episode_shifts=150, breakdown_rate=0.0)
+    # K 2.5x the default's: pads last ~70 hot shifts, so a short episode has fits to plan
+    cfg = FleetConfig(
+        n_vehicles=2, hot_need=1, episode_shifts=150, breakdown_rate=0.0, k_mean=5e-6,
+        k_std=5e-7,
+    )  # fmt: skip
     env = BrakeWearFleetEnv(cfg)
     model = ReferenceModel.build(cfg, env.atlas, n_k=8)
     return env, model, solve(model)
@@ -126,8 +130,8 @@ def small_fleet():
 def test_reference_policy_realises_its_predicted_cost(small_fleet):
     """Without breakdowns the only randomness left is the law-of-large-numbers wear and the
     new pads' K: the realised cost on the model's terms is the prediction within 10% on
-    average over 3 episodes (a window fit is 1000 of ~2000-4000 an episode), never a
-    failure, never a shortfall."""
+    average over 3 episodes (measured: 1333 predicted and realised; one window fit is
+    1000), never a failure, never a shortfall, and there were fits to plan."""
     env, model, sol = small_fleet
     policy = ReferencePolicy(env, model, sol, s=1, S=2)
     eps = run_episodes(env, policy, [1, 2, 3], check_masks=True)
@@ -141,3 +145,4 @@ def test_reference_policy_realises_its_predicted_cost(small_fleet):
     realised = [e.model_terms * e.vehicles * e.shifts for e in eps]
     assert np.mean(realised) == pytest.approx(np.mean(predicted), rel=0.10)
     assert sum(e.counts["failures"] + e.counts["shortfall"] for e in eps) == 0
+    assert sum(e.fits for e in eps) >= 3
