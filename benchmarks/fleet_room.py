@@ -8,7 +8,8 @@ closed-form expected RUL on the hot route from the true volume and K
 (``ExpectedRULObservation``; ``--rul oracle``: the oracle predictor through
 ``FleetRULObservation`` on ``truth=True``, the simulated-ahead RUL, ~20x slower).
 
-1. Each heuristic (agents.policies.fleet) is tuned with Optuna (TPE, seeded) on the tuning
+1. Each heuristic (agents.policies.fleet; search spaces in agents.study.fleet_tuning,
+   the seven of issue 20 and ``standby``) is tuned with Optuna (TPE, seeded) on the tuning
    seeds (``--tune-seeds`` episodes from seed 10_000) for ``--trials`` trials (the
    combination, 8 parameters, for ``--trials-best``, default 3x).
 2. The reference (agents.policies.fleet_reference): exact dynamic program over the
@@ -22,7 +23,7 @@ closed-form expected RUL on the hot route from the true volume and K
 4. The reference's predicted cost (its model's terms: no order nor holding cost) against
    its realised cost on the same terms, paired over the evaluation episodes.
 
-Default budget ~5 min on one core. Run: ``.venv/bin/python benchmarks/fleet_room.py
+Default budget ~5 min of CPU on one core (235 s measured for 10 evaluation episodes). Run: ``.venv/bin/python benchmarks/fleet_room.py
 [--trials 10] [--tune-seeds 2] [--eval-seeds 10] [--shifts 365] [--tail 200] [--json f]``.
 """
 
