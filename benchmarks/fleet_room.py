@@ -23,8 +23,10 @@ closed-form expected RUL on the hot route from the true volume and K
 4. The reference's predicted cost (its model's terms: no order nor holding cost) against
    its realised cost on the same terms, paired over the evaluation episodes.
 
-Default budget ~5 min of CPU on one core (235 s measured for 10 evaluation episodes). Run: ``.venv/bin/python benchmarks/fleet_room.py
-[--trials 10] [--tune-seeds 2] [--eval-seeds 10] [--shifts 365] [--tail 200] [--json f]``.
+Default budget ~5 min of CPU on one core (~4-5 min measured). Run:
+``.venv/bin/python benchmarks/fleet_room.py [--trials 10] [--trials-best 30] [--tune-seeds 2]
+[--eval-seeds 10] [--shifts 365] [--tail 200] [--rul closed-form|oracle] [--markdown]
+[--json f]``.
 """
 
 from __future__ import annotations
