@@ -20,6 +20,8 @@ closed-form expected RUL on the hot route from the true volume and K
    and paired bootstrap intervals (BCa, 95%) over episodes of each heuristic's gap to the
    reference (difference and ratio of means). The best heuristic is the one best on the
    tuning seeds (no selection on evaluation episodes).
+   Also on the reference model's terms (order and holding costs left out, so that the
+   reorder rules do not enter the comparison): the column ``gap, model terms``.
 4. The reference's predicted cost (its model's terms: no order nor holding cost) against
    its realised cost on the same terms, paired over the evaluation episodes.
 
@@ -58,9 +60,13 @@ def _row(name: str, eps: list[EpisodeCost], ref: list[EpisodeCost]) -> dict[str,
            ("window_fits", "visits", "shop_fits", "failures", "shortfall", "deferred")}  # fmt: skip
     row: dict[str, Any] = {"policy": name, "cost/veh-shift": float(x.mean()),
                            "billed": float(np.mean([e.billed for e in eps]))}  # fmt: skip
+    xm = np.array([e.model_terms for e in eps])
+    rm = np.array([e.model_terms for e in ref])
+    row["model terms"] = float(xm.mean())
     if eps is not ref:
         row["gap to ref"] = str(paired_interval(x, r, "difference"))
         row["ratio to ref"] = str(paired_interval(x, r, "ratio"))
+        row["gap, model terms"] = str(paired_interval(xm, rm, "difference"))
     row.update({k: round(float(v), 2) for k, v in per.items()})
     return row
 
