@@ -10,9 +10,9 @@ threshold with its reorder point and level tuned as well.
 ``standby`` is a combination with its structure fixed: the healthiest vehicles drive the
 hot route, the others are parked (a standby whose pad is not worn), requests are served
 lowest RUL first, and the three replacement limits (anywhere, at a window, in the shop)
-are tuned directly. It is what the reference does on two vehicles (one drives, the other
-waits; pads are changed at windows), found by reading the reference's decisions, and it
-is tuned on the tuning seeds like the others.
+are tuned directly. It is what the reference's decisions look like on two vehicles (one
+drives, the other waits with its pad unworn; pads are changed at windows, no visits), and
+it is tuned on the tuning seeds like the others.
 """
 
 from __future__ import annotations
