@@ -152,6 +152,13 @@ def _room(name: str, best: list[EpisodeCost], ref: list[EpisodeCost]) -> None:
         f" {r.mean():.4g} per vehicle-shift; gap {diff} (95% paired BCa), ratio {ratio}:"
         f" {verdict}"
     )
+    xm = np.array([e.model_terms for e in best])
+    rm = np.array([e.model_terms for e in ref])
+    print(
+        f"  on the reference model's terms (no order nor holding cost): {xm.mean():.4g} vs"
+        f" {rm.mean():.4g}; gap {paired_interval(xm, rm, 'difference')},"
+        f" ratio {paired_interval(xm, rm, 'ratio')}"
+    )
 
 
 def _fmt(v: Any) -> str:
