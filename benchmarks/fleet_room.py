@@ -8,7 +8,7 @@ closed-form expected RUL on the hot route from the true volume and K
 (``ExpectedRULObservation``; ``--rul oracle``: the oracle predictor through
 ``FleetRULObservation`` on ``truth=True``, the simulated-ahead RUL, ~20x slower).
 
-1. Each heuristic (agents.policies.fleet; search spaces in agents.study.fleet_tuning,
+1. Each heuristic (agents.policies.fleet; search spaces in agents.fleet_tuning,
    the seven of issue 20 and ``standby``) is tuned with Optuna (TPE, seeded) on the tuning
    seeds (``--tune-seeds`` episodes from seed 10_000) for ``--trials`` trials (the
    combination, 8 parameters, for ``--trials-best``, default 3x).
@@ -39,10 +39,10 @@ from typing import Any
 
 import numpy as np
 
+from agents.fleet_costs import EpisodeCost, paired_interval, run_episodes
+from agents.fleet_tuning import SPACES, tune
 from agents.policies.fleet_reference import ReferenceModel, ReferencePolicy, solve
 from agents.policies.fleet_view import ExpectedRULObservation, FleetLayout
-from agents.study.fleet_costs import EpisodeCost, paired_interval, run_episodes
-from agents.study.fleet_tuning import SPACES, tune
 from brake_env.env.fleet.config import FleetConfig
 from brake_env.env.fleet.env import BrakeWearFleetEnv
 from brake_env.env.fleet.wrappers import FleetRULObservation

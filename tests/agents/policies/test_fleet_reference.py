@@ -9,13 +9,13 @@ import itertools
 import numpy as np
 import pytest
 
+from agents.fleet_costs import run_episodes
 from agents.policies.fleet_reference import (
     ReferenceModel,
     ReferencePolicy,
     joint_choices,
     solve,
 )
-from agents.study.fleet_costs import run_episodes
 from brake_env.env.fleet.config import FleetConfig
 from brake_env.env.fleet.env import BrakeWearFleetEnv
 from brake_env.env.fleet.shop import HOT, PARK, SERVICE

@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from agents.fleet_costs import run_episode
 from agents.policies.fleet import (
     FleetRule,
     FleetRuleParams,
@@ -22,7 +23,6 @@ from agents.policies.fleet_view import (
     respects,
     rul_per_hot_shift,
 )
-from agents.study.fleet_costs import run_episode
 from brake_env.env.fleet.config import FleetConfig
 from brake_env.env.fleet.env import BrakeWearFleetEnv
 from brake_env.env.fleet.shop import HOT, MILD, PARK, SERVICE

@@ -1,13 +1,13 @@
-"""Fleet costs, paired intervals and tuning (agents.study.fleet_costs, fleet_tuning)."""
+"""Fleet costs, paired intervals and tuning (agents.fleet_costs, fleet_tuning)."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
+from agents.fleet_costs import paired_interval, run_episode
+from agents.fleet_tuning import SPACES, tune
 from agents.policies.fleet_view import ExpectedRULObservation, FleetLayout
-from agents.study.fleet_costs import paired_interval, run_episode
-from agents.study.fleet_tuning import SPACES, tune
 from brake_env.env.fleet.config import FleetConfig
 from brake_env.env.fleet.env import BrakeWearFleetEnv
 

@@ -23,6 +23,7 @@ from typing import Any
 
 import numpy as np
 
+from agents.fleet_costs import evaluate
 from agents.policies.fleet import (
     FleetRule,
     FleetRuleParams,
@@ -32,7 +33,6 @@ from agents.policies.fleet import (
     with_parts,
 )
 from agents.policies.fleet_view import FleetLayout
-from agents.study.fleet_costs import evaluate
 
 Space = Callable[[Any, FleetLayout, int], FleetRule]  # (trial, layout, window period)
 

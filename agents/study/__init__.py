@@ -1,1 +1,0 @@
-"""The cost studies: what policies cost, with paired intervals."""
