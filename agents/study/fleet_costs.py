@@ -1,0 +1,161 @@
+"""What a policy costs on BrakeWearFleet-v0, per vehicle-shift, on common random numbers; and
+paired bootstrap intervals of the difference and the ratio of two policies' costs.
+
+Every policy is run on the same episode seeds (an episode seed fixes the pads, their K, the
+streams and the breakdowns), so two policies' costs on one seed are a pair. Intervals
+resample episodes, pairs kept together (``scipy.stats.bootstrap(paired=True)``, BCa, the
+percentile method when BCa is degenerate). A ratio is a ratio of means, never a t-interval.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any, Literal
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.stats import bootstrap
+
+from agents.policies.fleet_view import respects
+from brake_env.env.fleet.config import COST_TERMS
+
+F64 = NDArray[np.float64]
+FITS = ("window_fits", "shop_fits", "visits", "corrective_fits")
+
+
+@dataclass(frozen=True)
+class EpisodeCost:
+    """One episode of one policy.
+
+    Attributes:
+        seed: The episode's seed.
+        vehicles: Fleet size.
+        shifts: Shifts run.
+        terms: Total of each cost term (keys of ``info["costs"]``).
+        counts: Total of each count of ``info["counts"]`` (fits, failures, ...).
+        pad_price: The env's price of a pad (to price pads when fitted).
+    """
+
+    seed: int
+    vehicles: int
+    shifts: int
+    terms: dict[str, float] = field(default_factory=dict)
+    counts: dict[str, float] = field(default_factory=dict)
+    pad_price: float = 0.0
+
+    @property
+    def total(self) -> float:
+        """The env's bill: the sum of its cost terms (pads priced when ordered)."""
+        return float(sum(self.terms.values()))
+
+    @property
+    def fits(self) -> float:
+        return float(sum(self.counts.get(k, 0) for k in FITS))
+
+    @property
+    def billed(self) -> float:
+        """The env's bill per vehicle-shift."""
+        return self.total / (self.vehicles * self.shifts)
+
+    @property
+    def per_vehicle_shift(self) -> float:
+        """The headline figure: cost per vehicle-shift with pads priced when fitted (so
+        that neither the free initial stock nor the spares left at the end, which the bill
+        prices when ordered, move it), order and holding costs included."""
+        pads = self.pad_price * self.fits - self.terms["pad"]
+        return (self.total + pads) / (self.vehicles * self.shifts)
+
+    @property
+    def model_terms(self) -> float:
+        """:attr:`per_vehicle_shift` without order and holding costs: the terms of the
+        perfect-information reference's model (which idealises spares away)."""
+        rest = self.terms["order"] + self.terms["holding"]
+        return self.per_vehicle_shift - rest / (self.vehicles * self.shifts)
+
+
+def run_episode(env: Any, policy: Any, seed: int, check_masks: bool = False) -> EpisodeCost:
+    """Run ``policy`` (SB3's ``predict``) for one whole episode of ``env`` from ``seed``.
+    With ``check_masks`` every action is checked against the env's mask (ValueError)."""
+    base = env.unwrapped
+    n = base.config.n_vehicles
+    obs, _ = env.reset(seed=seed)
+    terms = dict.fromkeys(COST_TERMS, 0.0)
+    counts: dict[str, float] = {}
+    shifts, done = 0, False
+    while not done:
+        action, _ = policy.predict(obs, deterministic=True)
+        if check_masks and not respects(action, base.action_masks(), n):
+            raise ValueError(f"{policy!r} broke the mask at shift {shifts}: {action}")
+        obs, _, terminated, truncated, info = env.step(action)
+        for k, v in info["costs"].items():
+            terms[k] += v
+        for k, v in info["counts"].items():
+            counts[k] = counts.get(k, 0) + v
+        shifts, done = shifts + 1, terminated or truncated
+    return EpisodeCost(seed, n, shifts, terms, counts, base.config.costs.pad)
+
+
+def run_episodes(
+    env: Any, policy: Any, seeds: Sequence[int], check_masks: bool = False
+) -> list[EpisodeCost]:
+    """:func:`run_episode` on each seed, in order."""
+    return [run_episode(env, policy, int(s), check_masks) for s in seeds]
+
+
+def evaluate(env: Any, policy: Any, seeds: Sequence[int], check_masks: bool = False) -> F64:
+    """Cost per vehicle-shift (:attr:`EpisodeCost.per_vehicle_shift`) on each seed."""
+    return np.array([e.per_vehicle_shift for e in run_episodes(env, policy, seeds, check_masks)])
+
+
+@dataclass(frozen=True)
+class Interval:
+    """A point estimate and its bootstrap interval."""
+
+    point: float
+    low: float
+    high: float
+    level: float
+
+    def __str__(self) -> str:
+        return f"{self.point:.4g} [{self.low:.4g}, {self.high:.4g}]"
+
+
+def paired_interval(
+    a: Sequence[float] | F64, b: Sequence[float] | F64,
+    statistic: Literal["difference", "ratio"] = "difference",
+    level: float = 0.95, n_resamples: int = 4000, seed: int = 0,
+) -> Interval:  # fmt: skip
+    """Paired bootstrap interval over episodes of mean(a) - mean(b) or mean(a) / mean(b).
+
+    Args:
+        a, b: Per-episode costs of two policies on the same seeds (same order).
+        statistic: ``difference`` or ``ratio`` (of means).
+        level: Confidence level.
+        n_resamples: Bootstrap resamples.
+        seed: Seed of the resampling.
+    """
+    x, y = np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64)
+    if x.shape != y.shape or x.ndim != 1 or x.size < 2:
+        raise ValueError(f"paired_interval: need two 1-D arrays of one length >= 2, got"
+                         f" {x.shape} and {y.shape}")  # fmt: skip
+    if statistic not in ("difference", "ratio"):
+        raise ValueError(
+            f"paired_interval: statistic must be difference or ratio, got {statistic!r}"
+        )
+
+    def stat(u: F64, v: F64, axis: int = -1) -> F64:
+        mu, mv = u.mean(axis=axis), v.mean(axis=axis)
+        return mu - mv if statistic == "difference" else mu / mv
+
+    point = float(stat(x, y))
+    if np.allclose(x - y, (x - y)[0]) and statistic == "difference":
+        return Interval(point, point, point, level)  # no spread: BCa is undefined
+    for method in ("BCa", "percentile"):
+        res = bootstrap((x, y), stat, paired=True, vectorized=True, confidence_level=level,
+                        n_resamples=n_resamples, method=method,
+                        rng=np.random.default_rng(seed))  # fmt: skip
+        lo, hi = res.confidence_interval
+        if np.isfinite(lo) and np.isfinite(hi):
+            return Interval(point, float(lo), float(hi), level)
+    return Interval(point, float("nan"), float("nan"), level)

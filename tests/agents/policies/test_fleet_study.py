@@ -1,0 +1,71 @@
+"""Fleet costs, paired intervals and tuning (agents.study.fleet_costs, fleet_tuning)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from agents.policies.fleet_view import ExpectedRULObservation, FleetLayout
+from agents.study.fleet_costs import paired_interval, run_episode
+from agents.study.fleet_tuning import SPACES, tune
+from brake_env.env.fleet.config import FleetConfig
+from brake_env.env.fleet.env import BrakeWearFleetEnv
+
+
+def test_paired_interval_difference_and_ratio():
+    rng = np.random.default_rng(0)
+    b = rng.uniform(5, 10, 30)
+    a = b * 1.2 + rng.normal(0, 0.1, 30)
+    d = paired_interval(a, b, "difference")
+    r = paired_interval(a, b, "ratio")
+    assert d.low < d.point < d.high and d.low > 0
+    assert r.low < 1.2 < r.high and r.point == pytest.approx(a.mean() / b.mean())
+    same = paired_interval(b, b, "difference")
+    assert (same.point, same.low, same.high) == (0.0, 0.0, 0.0)
+    with pytest.raises(ValueError, match="one length"):
+        paired_interval(a, b[:-1])
+    with pytest.raises(ValueError, match="statistic"):
+        paired_interval(a, b, "t")  # type: ignore[arg-type]
+
+
+@pytest.fixture(scope="module")
+def tiny():
+    cfg = FleetConfig(n_vehicles=2, hot_need=1, episode_shifts=30, k_mean=1e-5, k_std=1e-6)
+    return ExpectedRULObservation(BrakeWearFleetEnv(cfg)), FleetLayout.of(cfg)
+
+
+def test_episode_costs_add_up(tiny):
+    env, layout = tiny
+    rule = SPACES["threshold"](_Fixed({"threshold": 5.0}), layout, 14)
+    ep = run_episode(env, rule, seed=1)
+    assert ep.shifts == 30 and ep.billed == pytest.approx(ep.total / 60)
+    # pads priced when fitted instead of ordered
+    fitted = ep.total - ep.terms["pad"] + ep.pad_price * ep.fits
+    assert ep.per_vehicle_shift == pytest.approx(fitted / 60)
+    assert ep.model_terms <= ep.per_vehicle_shift
+
+
+def test_tuning_is_deterministic_for_a_seed(tiny):
+    env, layout = tiny
+    a = tune("time-to-window", env, layout, seeds=[7], n_trials=3, sampler_seed=4)
+    b = tune("time-to-window", env, layout, seeds=[7], n_trials=3, sampler_seed=4)
+    assert a.params == b.params and a.tuning_cost == b.tuning_cost
+    assert a.rule.params == b.rule.params
+    with pytest.raises(ValueError, match="unknown heuristic"):
+        tune("magic", env, layout, seeds=[7], n_trials=1)
+
+
+class _Fixed:
+    """A stand-in for an Optuna trial with fixed values (no optuna needed)."""
+
+    def __init__(self, values: dict) -> None:
+        self.values = values
+
+    def suggest_float(self, name: str, low: float, high: float) -> float:
+        return self.values[name]
+
+    def suggest_int(self, name: str, low: int, high: int) -> int:
+        return self.values[name]
+
+    def suggest_categorical(self, name: str, choices: list) -> object:
+        return self.values[name]
