@@ -78,7 +78,8 @@ class FleetPads:
         self.layer = np.zeros(n, dtype=np.int64)
         self.done = np.zeros(n, dtype=bool)  # end of life reached
         self._u = np.zeros((n, capacity, 3))  # buffered uniform triples (0 until drawn)
-        self._z = np.empty((n, N_CH, capacity))  # buffered standard normals
+        # 0 until drawn: a round reads past a short row's draws (discarded), never garbage
+        self._z = np.zeros((n, N_CH, capacity))  # buffered standard normals
         self._cur = np.zeros(n, dtype=np.int64)  # next unused buffer column
         self._have = np.zeros(n, dtype=np.int64)  # filled buffer columns
         self._cond: list[np.random.Generator | None] = [None] * n
