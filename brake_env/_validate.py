@@ -114,3 +114,21 @@ def _check_keys(
             f"{who}: saved {kind}s: the state {' and '.join(parts)}; a {who} state has {kind}s"
             f" {sorted(required | optional)} (a model of another predictor, or an edited one?)"
         )
+
+
+class UnknownArgumentError(TypeError, ValueError):
+    """An env keyword that does not exist. A ``TypeError``, as Python raises for an
+    unexpected keyword, so clients that probe optional keywords and retry without them on a
+    ``TypeError`` (TorchRL's ``GymEnv`` passes ``frameskip``) work; a ``ValueError`` as
+    before, for callers that catch bad arguments as one kind."""
+
+
+def check_keywords(env_id: str, kwargs: Mapping[str, Any], names: Iterable[str]) -> None:
+    """Refuse keyword arguments of ``env_id`` that are not among ``names``, naming them."""
+    valid = sorted(names)
+    unknown = sorted(set(kwargs) - set(valid))
+    if unknown:
+        raise UnknownArgumentError(
+            f"{env_id}: got an unexpected keyword argument {unknown[0]!r} (unknown"
+            f" argument(s) {unknown}; valid are {valid})"
+        )

@@ -13,17 +13,14 @@ from typing import Any, Literal
 
 import numpy as np
 
-from brake_env._validate import check_nonnegative, check_range, from_dict
+from brake_env._validate import (
+    check_keywords,
+    check_nonnegative,
+    check_range,
+    from_dict,
+)
 from brake_env.model.regime import Label, WearRegime
 from brake_env.model.simulator import SensorNoise
-
-
-class UnknownArgumentError(TypeError, ValueError):
-    """An env keyword that does not exist. A ``TypeError``, as Python raises for an
-    unexpected keyword, so clients that probe optional keywords and retry without them on a
-    ``TypeError`` (TorchRL's ``GymEnv`` passes ``frameskip``) work; a ``ValueError`` as
-    before, for callers that catch bad arguments as one kind."""
-
 
 REGIMES = ("id", "ood", "mixed")
 PRESETS = ("hot-duty", "cold-start")
@@ -201,13 +198,7 @@ class EnvConfig:
     @classmethod
     def from_kwargs(cls, base: EnvConfig | None = None, **kwargs: Any) -> EnvConfig:
         """``base`` (default config if None) with ``kwargs`` replaced, all validated."""
-        names = {f.name for f in dataclasses.fields(cls)}
-        unknown = sorted(set(kwargs) - names)
-        if unknown:
-            raise UnknownArgumentError(
-                f"BrakeWear-v0: got an unexpected keyword argument {unknown[0]!r} (unknown"
-                f" argument(s) {unknown}; valid are {sorted(names)})"
-            )
+        check_keywords("BrakeWear-v0", kwargs, (f.name for f in dataclasses.fields(cls)))
         if isinstance(kwargs.get("costs"), dict):
             kwargs["costs"] = from_dict(CostWeights, kwargs["costs"])
         if isinstance(kwargs.get("noise"), dict):

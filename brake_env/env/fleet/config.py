@@ -14,7 +14,7 @@ from typing import Any, Literal
 
 import numpy as np
 
-from brake_env._validate import check_nonnegative, from_dict
+from brake_env._validate import check_keywords, check_nonnegative, from_dict
 from brake_env.env.config import PRESETS, REGIMES, PadRegime
 from brake_env.model.regime import WearRegime
 from brake_env.model.streams import SensorNoise
@@ -214,10 +214,7 @@ class FleetConfig:
     @classmethod
     def from_kwargs(cls, base: FleetConfig | None = None, **kwargs: Any) -> FleetConfig:
         """``base`` (default config if None) with ``kwargs`` replaced, all validated."""
-        names = {f.name for f in dataclasses.fields(cls)}
-        unknown = sorted(set(kwargs) - names)
-        if unknown:
-            raise ValueError(f"{ENV_ID}: unknown argument(s) {unknown}; valid are {sorted(names)}")
+        check_keywords(ENV_ID, kwargs, (f.name for f in dataclasses.fields(cls)))
         if isinstance(kwargs.get("costs"), dict):
             kwargs["costs"] = from_dict(FleetCosts, kwargs["costs"])
         if isinstance(kwargs.get("noise"), dict):

@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 
 import brake_env  # noqa: F401  # registers BrakeWear-v0
+from brake_env._validate import UnknownArgumentError
 from brake_env.env.brake_wear import BrakeWearEnv
-from brake_env.env.config import UnknownArgumentError
 
 FAST = {"k_mean": 1e-5, "k_std": 1e-6, "decision_interval": 500, "episode_events": 100_000}
 

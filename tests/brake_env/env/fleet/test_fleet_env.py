@@ -319,3 +319,9 @@ def test_a_vehicles_pads_do_not_depend_on_the_policy(make) -> None:
         env.step(act(HOT, PARK, PARK))
         ks.append(env.truth()["volume_frac"][0])
     assert ks[0] == ks[2] and ks[1] == ks[3]
+
+
+def test_an_unknown_keyword_is_a_type_error_as_torchrl_expects() -> None:
+    """The fleet env's keywords are refused like BrakeWear-v0's (one check for both)."""
+    with pytest.raises(TypeError, match="unexpected keyword argument 'frameskip'"):
+        FleetConfig.from_kwargs(frameskip=1)
