@@ -1,9 +1,11 @@
 """Room to decide on BrakeWearFleet-v0's small fleet (issue 20): every tuned heuristic with
 the oracle's RUL against the perfect-information reference.
 
-Small fleet: 2 vehicles, 1 needed on the hot route, a half-year episode (365 shifts);
-every other setting is the env's default (window every 14 shifts, 2 bays, 4 spares at the
-start, lead time 14, breakdowns 0.02 per working shift, costs). The oracle's RUL is the
+Small fleet (``SMALL_FLEET``): the default fleet scaled down to 2 vehicles, 1 needed on the
+hot route and 1 on the mild one (both always needed: a mine does not buy trucks to park
+them), 1 window slot, 1 bay; a half-year episode (365 shifts); every other setting is the
+env's default (window every 14 shifts, 4 spares at the start, lead time 14, breakdowns
+0.02 per working shift, costs). The oracle's RUL is the
 closed-form expected RUL on the hot route from the true volume and K
 (``ExpectedRULObservation``; ``--rul oracle``: the oracle predictor through
 ``FleetRULObservation`` on ``truth=True``, the simulated-ahead RUL, ~20x slower).
@@ -50,6 +52,9 @@ from brake_env.output import table, write_json
 from brake_env.prognostics.registry import make_predictor
 
 TUNE_SEED0 = 10_000
+# The default fleet (12 vehicles: 6 hot + 4 mild needed, 3 window slots, 2 bays) scaled by
+# 1/6, each count rounded up to 1: every vehicle is needed, and the window fits one pad set.
+SMALL_FLEET = {"n_vehicles": 2, "hot_need": 1, "mild_need": 1, "window_slots": 1, "bays": 1}
 BEST = "best combination"
 
 
@@ -87,7 +92,7 @@ def main() -> None:
     )  # fmt: skip
     a = ap.parse_args()
     t0 = time.process_time()
-    cfg = FleetConfig(n_vehicles=2, hot_need=1, episode_shifts=a.shifts, truth=a.rul == "oracle")
+    cfg = FleetConfig(**SMALL_FLEET, episode_shifts=a.shifts, truth=a.rul == "oracle")
     env = _rul_env(BrakeWearFleetEnv(cfg), a.rul)
     layout = FleetLayout.of(cfg)
     tune_seeds = list(range(TUNE_SEED0, TUNE_SEED0 + a.tune_seeds))
@@ -108,7 +113,7 @@ def main() -> None:
     for name, t in tuned.items():
         results[name] = run_episodes(env, t.rule, eval_seeds, check_masks=True)
         rows.append(_row(name, results[name], ref_eps))
-    print(f"Small fleet: 2 vehicles, hot_need 1, {a.shifts} shifts; {a.trials} Optuna trials"
+    print(f"Small fleet: {SMALL_FLEET}, {a.shifts} shifts; {a.trials} Optuna trials"
           f" ({n_best} for the combination) x {a.tune_seeds} tuning episodes per heuristic;"
           f" {a.eval_seeds} evaluation"
           f" episodes (seeds 0..{a.eval_seeds - 1}), oracle RUL ({a.rul})")  # fmt: skip

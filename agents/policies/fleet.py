@@ -12,13 +12,19 @@ with every part free. All limits are RUL in shifts of hot duty (:mod:`.fleet_vie
   a margin; the (n, N) opportunistic limits (Wijnmalen and Hontelez, EJOR 1997) are
   ``must = N`` and ``window_limit = shop_limit = n``.
 - **Capacity** (``greedy``): requests are served lowest RUL first within the spares in
-  stock and, for visits, the free bays; the others are not sent (so not deferred, and
-  they drive last). Without it every request goes to the workshop, whose own rule serves
-  by pad age and defers the rest (the vehicle then loses the shift).
-- **Duty**: the vehicles able to drive fill the hot need in vehicle order (``roster``) or
-  healthiest first (``rul``: the vehicles with the least RUL take the spare duty); the
-  others take ``spare_duty``, the mild route or parked. (In FleetCosts the mild route
-  earns nothing, so parking is never dearer; both are offered, the tuner decides.)
+  stock and, at a window, the crew's slots, or, for visits, the free bays; the others are
+  not sent (so not deferred, and they drive last). Without it every request goes to the
+  workshop, whose own rule serves by pad age and defers the rest (the vehicle then loses
+  the shift).
+- **Duty**: the vehicles able to drive fill the hot need, then the mild need, in vehicle
+  order (``roster``), healthiest first (``rul``: the vehicles with the least RUL take
+  the mild route, and the spare duty if any), or ``due-first``: a pad that will be
+  replaced at the next window anyway (its RUL there, after hot shifts until then, below
+  the window limit, but still above ``must``) takes the ramp first, since the life it
+  would keep on the mild route is thrown away at the window, and the others are spared
+  its wear; then healthiest first; a due pad filling the mild need is sent up the ramp
+  too (a ramp truck covers a drift). The others take ``spare_duty``, the mild route or
+  parked.
 - **Reorder** (s, S): when the inventory position (stock + in transit - fits sent now)
   is below ``s``, order up to ``S`` (at most ``max_order``).
 
@@ -38,7 +44,7 @@ from agents.policies.fleet_view import FleetLayout, FleetView
 from brake_env.env.fleet.shop import HOT, MILD, PARK, SERVICE
 
 I64 = NDArray[np.int64]
-DUTIES = ("roster", "rul")
+DUTIES = ("roster", "rul", "due-first")
 SPARE_DUTIES = {"mild": MILD, "park": PARK}
 
 
@@ -51,7 +57,8 @@ class FleetRuleParams:
         window_limit: Replace at a window below this RUL (None: ``must``).
         shop_limit: Replace while in the shop below this RUL (None: ``must``).
         greedy: Capacity-aware: serve lowest RUL first within stock and bays.
-        duty: ``roster`` (vehicle order) or ``rul`` (healthiest on the hot route).
+        duty: ``roster`` (vehicle order), ``rul`` (healthiest on the hot route) or
+            ``due-first`` (pads due at the next window on the hot route first).
         spare_duty: Duty of the able vehicles not needed on the hot route.
         s: Reorder point: order when the inventory position is below it.
         S: Order-up-to level (>= s).
@@ -128,11 +135,13 @@ class FleetRule:
         if not self.params.greedy:
             return want, np.zeros_like(want)
         send = np.zeros_like(want)
-        stock, bays = view.stock, view.free_bays
+        stock, bays, slots = view.stock, view.free_bays, self.layout.window_slots
         for v in np.flatnonzero(want)[np.argsort(view.rul[want], kind="stable")]:
-            visit = not (view.window or view.down[v])
-            if stock > 0 and (bays > 0 or not visit):
-                send[v], stock, bays = True, stock - 1, bays - int(visit)
+            room = slots > 0 if view.window else (bool(view.down[v]) or bays > 0)
+            if stock > 0 and room:
+                send[v], stock = True, stock - 1
+                slots -= int(view.window)
+                bays -= int(not (view.window or view.down[v]))
         return send, want & ~send
 
     def _duties(
@@ -146,12 +155,27 @@ class FleetRule:
         able = ~view.down & ~service
         # Sort key: hot goes to the first of the able (vehicle order or most RUL); vehicles
         # that wanted a service and were not sent go last.
-        key = -view.rul if self.params.duty == "rul" else np.arange(n, dtype=np.float64)
+        key = -view.rul if self.params.duty != "roster" else np.arange(n, dtype=np.float64)
+        if self.params.duty == "due-first":
+            key = np.where(self._due(view), key - 1e9, key)
         key = np.where(unserved, np.inf, key)
         order = np.flatnonzero(able)[np.argsort(key[able], kind="stable")]
+        hot, mild = self.layout.hot_need, self.layout.hot_need + self.layout.mild_need
         duty[order] = SPARE_DUTIES[self.params.spare_duty]
-        duty[order[: self.layout.hot_need]] = HOT
+        duty[order[hot:mild]] = MILD
+        duty[order[:hot]] = HOT
+        if self.params.duty == "due-first":  # a due pad covers a drift from the ramp
+            drift = order[hot:mild]
+            duty[drift[self._due(view)[drift]]] = HOT
         return duty
+
+    def _due(self, view: FleetView) -> NDArray[np.bool_]:
+        """Pads that, driven on the ramp until the next window, are replaced there and
+        still above ``must`` when they get there."""
+        p = self.params
+        at_window = view.rul - view.to_window
+        win = p.must if p.window_limit is None else p.window_limit
+        return (at_window < win) & (at_window > p.must)
 
     def _order(self, view: FleetView, fits: int) -> int:
         p = self.params

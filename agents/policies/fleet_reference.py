@@ -7,11 +7,13 @@ after a breakdown, ``d``. The pad's true volume and K are known; ``rul_hot`` is 
 expected events to failure on the hot route, in closed form from the atlas's layer wear
 (:func:`~brake_env.env.fleet.routes.route_wear_model`). A shift on the hot route lowers
 ``h`` by exactly one: the wear of a shift's ~400 events is nearly deterministic (law of
-large numbers), and the hot RUL is counted in those shifts whatever the layer. Parking
-does not wear. The mild route is left out: it earns nothing in
-:class:`~brake_env.env.fleet.config.FleetCosts` and wears the pad, so parking dominates
-it. A new pad's ``h`` is drawn from ``n_k`` equal-probability quantiles of K; once fitted
-its K is known (perfect information on the pads, not on future pads' K).
+large numbers), and the hot RUL is counted in those shifts whatever the layer. A shift on
+the mild route uses ``r(h)`` of a hot shift, the mild route's wear per event over the hot
+route's in the layer the pad is in at state ``h`` (the atlas's route means, 0.15-0.21):
+the program lowers ``h`` by one with probability ``r(h)`` (its expected wear; the one
+approximation of the program's clock). Parking does not wear. A new pad's ``h`` is drawn
+from ``n_k`` equal-probability quantiles of K; once fitted its K is known (perfect
+information on the pads, not on future pads' K).
 
 Idealised: spares are always in stock (each fit pays the pad; no order nor holding cost,
 no lead time); a failure costs damage, ``failure_repair_shifts`` shifts of downtime,
@@ -19,15 +21,18 @@ labour and pad, and the vehicle is back with a new pad next shift (the shifts ou
 modelled; the optimum avoids failures). As in the env: other breakdowns (a vehicle that
 drove breaks down with probability ``breakdown_rate`` and is in the shop for
 ``breakdown_repair_shifts``, where it may get pads for labour and pad alone); window
-shifts (nobody drives, fits cost labour and pad); between windows a fit is a visit
-(visit cost, labour, pad; the vehicle is out for the shift). Bays are not binding with
-two vehicles and two bays (the policy in the env respects them anyway).
+shifts (nobody drives, fits cost labour and pad, at most ``window_slots`` of them);
+between windows a fit is a visit (visit cost, labour, pad; the vehicle is out for the
+shift). Bays are not modelled: on two vehicles a second visit in one shift is never
+worth it; the policy in the env respects them anyway.
 
-Per shift the decision is joint over the vehicles: hot, park or service each; a shortfall
-costs ``shortfall`` per vehicle short of ``hot_need``. The value is solved by backward
-induction over the episode plus a ``tail`` of shifts (so that the plan does not exploit
-the episode's end: a mine does not stop after the episode); the predicted cost of an
-episode is the value of following that plan for the episode's shifts from its first state.
+Per shift the decision is joint over the vehicles: hot, mild, park or service each; a
+shortfall costs ``shortfall`` per vehicle short of ``hot_need`` and ``mild_shortfall``
+per vehicle short of ``mild_need`` (hot vehicles beyond the hot need count towards it).
+The value is solved by backward induction over the episode plus a ``tail`` of shifts (so
+that the plan does not exploit the episode's end: a mine does not stop after the
+episode); the predicted cost of an episode is the value of following that plan for the
+episode's shifts from its first state.
 The state space is ``((H + 1) * (R + 1)) ** n`` per shift (R the breakdown repair shifts),
 so the program is for one or two vehicles.
 """
@@ -45,14 +50,15 @@ from scipy.stats import norm
 from agents.policies.fleet import reorder
 from brake_env.env.fleet.config import FleetConfig
 from brake_env.env.fleet.routes import HOT as HOT_ROUTE
-from brake_env.env.fleet.routes import route_wear_model
-from brake_env.env.fleet.shop import HOT, PARK, SERVICE
+from brake_env.env.fleet.routes import MILD as MILD_ROUTE
+from brake_env.env.fleet.routes import route_mean, route_wear_model
+from brake_env.env.fleet.shop import HOT, MILD, PARK, SERVICE
 from brake_env.model.atlas import Atlas
 from brake_env.model.wear import WearModel
 
 F64 = NDArray[np.float64]
 MAX_VEHICLES = 2
-CHOICES = (HOT, PARK, SERVICE)
+CHOICES = (HOT, MILD, PARK, SERVICE)
 
 
 @dataclass(frozen=True)
@@ -64,12 +70,15 @@ class ReferenceModel:
         wear: The hot route's wear clock (RUL from volume and K).
         h_new: Hot-shift lives of a new pad at the K quantiles, shape (n_k,).
         w_new: Their probabilities (equal), shape (n_k,).
+        r_mild: Hot shifts a mild shift uses at each state h (the probability the program
+            lowers h by one on the mild route), shape (H + 1,).
     """
 
     config: FleetConfig
     wear: WearModel
     h_new: NDArray[np.int64]
     w_new: F64
+    r_mild: F64
 
     @classmethod
     def build(cls, config: FleetConfig, atlas: Atlas, n_k: int = 16) -> ReferenceModel:
@@ -87,7 +96,12 @@ class ReferenceModel:
         k = config.k_mean + config.k_std * norm.ppf(q)
         wear = route_wear_model(atlas, HOT_ROUTE)
         h_new = np.floor(wear.life(k) / config.events_per_shift).astype(np.int64)
-        return cls(config, wear, h_new, np.full(n_k, 1.0 / n_k))
+        # the layer a pad of the mean K is in, half a hot shift into state h
+        h = np.arange(int(h_new.max()) + 1) + 0.5
+        work = wear.life_work - h * config.events_per_shift * config.k_mean
+        layer = wear.layer_at_work(np.clip(work, 0.0, wear.life_work))
+        ratio = route_mean(atlas, MILD_ROUTE) / route_mean(atlas, HOT_ROUTE)
+        return cls(config, wear, h_new, np.full(n_k, 1.0 / n_k), ratio[layer])
 
     @property
     def H(self) -> int:
@@ -160,25 +174,37 @@ def _after_each(model: ReferenceModel, v: F64, i: int, window: bool) -> dict[int
     drive = d0 if p == 0 else (1 - p) * d0 + p * np.take(v, [model.D - 1], axis=da)
     fail = v.dtype.type(model.fail_cost) + np.take(new, [0], axis=da)
     hot = np.concatenate([fail, np.take(drive, np.arange(model.H), axis=ha)], axis=ha)
+    # MILD: a hot shift's step with probability r(h), else the pad stays at h
+    r = _along(model.r_mild.astype(v.dtype), ha, v.ndim)
+    with np.errstate(invalid="ignore"):  # 0 * inf where another vehicle cannot drive
+        mild = r * hot + (1 - r) * drive
+    mild = np.where(r == 0, drive, np.where(r == 1, hot, mild))
     shape = list(hot.shape)
     shape[da] = model.D - 1
     blocked = np.full(shape, np.inf, dtype=v.dtype)  # in the shop: it cannot drive
     out[HOT] = np.concatenate([hot, blocked], axis=da)
+    out[MILD] = np.concatenate([mild, blocked], axis=da)
     return out
 
 
 def joint_choices(model: ReferenceModel, window: bool) -> list[tuple[int, ...]]:
-    """Joint decisions of a shift: at a window park or service, else hot, park or service."""
-    per = (PARK, SERVICE) if window else CHOICES
-    return list(itertools.product(per, repeat=model.config.n_vehicles))
+    """Joint decisions of a shift: at a window park or service (at most ``window_slots``
+    services), else hot, mild, park or service."""
+    if not window:
+        return list(itertools.product(CHOICES, repeat=model.config.n_vehicles))
+    joints = itertools.product((PARK, SERVICE), repeat=model.config.n_vehicles)
+    return [j for j in joints if j.count(SERVICE) <= model.config.window_slots]
 
 
 def shift_cost(model: ReferenceModel, joint: tuple[int, ...], window: bool) -> float:
-    """The shortfall of a joint decision (its fits are priced in :func:`_after`)."""
+    """The shortfall of a joint decision (its fits are priced in :func:`_after_each`)."""
     if window:
         return 0.0
-    short = max(model.config.hot_need - sum(c == HOT for c in joint), 0)
-    return model.config.costs.shortfall * short
+    c = model.config
+    hot, mild = joint.count(HOT), joint.count(MILD)
+    short_hot = max(c.hot_need - hot, 0)
+    short_mild = max(c.mild_need - mild - max(hot - c.hot_need, 0), 0)
+    return c.costs.shortfall * short_hot + c.costs.mild_shortfall * short_mild
 
 
 def q_values(model: ReferenceModel, v_next: NDArray[Any], window: bool) -> NDArray[Any]:
@@ -291,7 +317,9 @@ class ReferencePolicy:
         best, best_q = tuple(PARK for _ in down), np.inf
         for joint in itertools.product(*options):
             fits = np.array([j == SERVICE for j in joint])
-            if fits.sum() > stock or (not window and (fits & (down == 0)).sum() > bays):
+            if fits.sum() > stock or (window and fits.sum() > c.window_slots):
+                continue
+            if not window and (fits & (down == 0)).sum() > bays:
                 continue
             q = self._q(h, down, joint, window, v_next)
             if q < best_q:
@@ -306,20 +334,41 @@ class ReferencePolicy:
         m = self.model
         states, probs, cost = [], [], shift_cost(m, joint, window)
         for hv, dv, choice in zip(h, down, joint, strict=True):
-            d_next = max(min(int(dv), m.D - 1) - 1, 0)
-            if choice == PARK:
-                states.append(m.flat(np.array([hv]), np.array([d_next])))
-                probs.append(np.ones(1))
-            elif choice == HOT and hv >= 1:
-                states.append(m.flat(np.array([hv - 1, hv - 1]), np.array([0, m.D - 1])))
-                p = m.config.breakdown_rate
-                probs.append(np.array([1 - p, p]))
-            else:  # a new pad: serviced, or failed on the hot route
-                fit = m.fit_cost if (window or dv > 0) else m.visit_cost
-                cost += m.fail_cost if choice == HOT else fit
-                states.append(m.flat(m.h_new, np.full(m.h_new.size, d_next)))
-                probs.append(m.w_new)
+            x, p, c = _outcomes(m, int(hv), int(dv), choice, window)
+            states.append(x)
+            probs.append(p)
+            cost += c
         return float(cost + _expect(v_next[np.ix_(*states)], probs))
+
+
+Outcomes = tuple[NDArray[np.int64], F64, float]
+
+
+def _outcomes(m: ReferenceModel, h: int, d: int, choice: int, window: bool) -> Outcomes:
+    """A vehicle's next flat states, their probabilities and the expected cost of its
+    choice from state (h, d), by the program's transitions."""
+    d_next = max(min(d, m.D - 1) - 1, 0)
+    if choice == PARK:
+        return m.flat(np.array([h]), np.array([d_next])), np.ones(1), 0.0
+    if choice == SERVICE:
+        fit = m.fit_cost if (window or d > 0) else m.visit_cost
+        return m.flat(m.h_new, np.full(m.h_new.size, d_next)), m.w_new, fit
+    p = m.config.breakdown_rate
+
+    def drive(hh: int) -> Outcomes:  # one shift driven, then a breakdown with probability p
+        return m.flat(np.array([hh, hh]), np.array([0, m.D - 1])), np.array([1 - p, p]), 0.0
+
+    fail = (m.flat(m.h_new, np.zeros(m.h_new.size, dtype=np.int64)), m.w_new, m.fail_cost)
+    step = drive(h - 1) if h >= 1 else fail
+    if choice == HOT:
+        return step
+    r = float(m.r_mild[h])
+    stay = drive(h)
+    return (
+        np.concatenate([step[0], stay[0]]),
+        np.concatenate([r * step[1], (1 - r) * stay[1]]),
+        r * step[2],
+    )
 
 
 def _expect(value: F64, probs: list[F64]) -> float:

@@ -57,6 +57,8 @@ class FleetLayout:
         fields: RUL fields appended per vehicle (FleetRULObservation's ``fields``).
         rul_field: Which of them the rules read (e.g. ``rul_lower`` for a cautious rule).
         rul_per_shift: Events of RUL one hot shift uses (:func:`rul_per_hot_shift`).
+        mild_need: Vehicles needed on the mild route each working shift (beyond the hot).
+        window_slots: Pad sets the window's crew can fit.
     """
 
     n_vehicles: int
@@ -65,11 +67,18 @@ class FleetLayout:
     fields: tuple[str, ...] = ("rul_mean",)
     rul_field: str = "rul_mean"
     rul_per_shift: float = 400.0
+    mild_need: int = 0
+    window_slots: int = 256
 
     def __post_init__(self) -> None:
         if self.n_vehicles < 1 or not 0 <= self.hot_need <= self.n_vehicles:
             raise ValueError(f"FleetLayout: need 1 <= n_vehicles and 0 <= hot_need <= n_vehicles,"
                              f" got {self.n_vehicles}, {self.hot_need}")  # fmt: skip
+        if self.mild_need < 0 or self.hot_need + self.mild_need > self.n_vehicles:
+            raise ValueError(f"FleetLayout: need 0 <= mild_need <= n_vehicles - hot_need,"
+                             f" got {self.mild_need}")  # fmt: skip
+        if self.window_slots < 0:
+            raise ValueError(f"FleetLayout: window_slots must be >= 0, got {self.window_slots}")
         if not self.fields or any(f not in ESTIMATE_FIELDS for f in self.fields):
             raise ValueError(f"FleetLayout: fields must be among {ESTIMATE_FIELDS}")
         if self.rul_field not in self.fields:
@@ -81,6 +90,8 @@ class FleetLayout:
     def of(cls, config: FleetConfig, **kwargs: Any) -> FleetLayout:
         """The layout of an env with ``config`` (rul_per_shift defaults to the hot route's)."""
         kwargs.setdefault("rul_per_shift", float(config.events_per_shift))
+        kwargs.setdefault("mild_need", config.mild_need)
+        kwargs.setdefault("window_slots", config.window_slots)
         return cls(config.n_vehicles, config.hot_need, config.max_order, **kwargs)
 
     @property

@@ -83,7 +83,7 @@ def _best(t: Any, lay: FleetLayout, w: int) -> FleetRule:
         window_limit=w - 1 + t.suggest_float("margin", -10.0, 30.0),
         shop_limit=must + t.suggest_float("shop_minus_must", 0.0, 40.0),
         greedy=t.suggest_categorical("greedy", [False, True]),
-        duty=t.suggest_categorical("duty", ["roster", "rul"]),
+        duty=t.suggest_categorical("duty", ["roster", "rul", "due-first"]),
         spare_duty=t.suggest_categorical("spare_duty", ["mild", "park"]),
         s=s,
         S=s + t.suggest_int("S_minus_s", 0, 6),

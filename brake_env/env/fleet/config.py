@@ -52,6 +52,9 @@ class FleetCosts:
         shortfall: Lost production of each vehicle missing from the hot route's need in a
             shift (assumption: two planned replacements per vehicle-shift of ramp haulage)
             [-/vehicle-shift].
+        mild_shortfall: Lost production of each vehicle missing from the mild route's need
+            (drift mucking and development; assumption: half a ramp shift, since ore on the
+            ramp is what the mine sells and development can catch up) [-/vehicle-shift].
         deferred: Each service request deferred for lack of a bay or a spare. Its real cost
             is the vehicle's lost shift (it waits at the shop, parked), which ``shortfall``
             already prices, so 0 by default; the count is always reported [-/request].
@@ -65,6 +68,7 @@ class FleetCosts:
     damage: float = 5000.0
     downtime: float = 1000.0
     shortfall: float = 2000.0
+    mild_shortfall: float = 1000.0
     deferred: float = 0.0
 
     def __post_init__(self) -> None:
@@ -81,6 +85,8 @@ _INT_FIELDS = (
     ("window_period", 1, 10_000),
     ("bays", 0, 256),
     ("hot_need", 0, 256),
+    ("mild_need", 0, 256),
+    ("window_slots", 0, 256),
     ("initial_stock", 0, 10_000),
     ("max_order", 0, 1_000),
     ("lead_time", 1, 1_000),
@@ -106,13 +112,22 @@ class FleetConfig:
         window_period: A scheduled maintenance window every this many shifts (the fleet's
             weekly planned-maintenance shift on a 2 x 12 h roster: 14). The window is a
             shift of its own: nobody hauls, no production is needed, any vehicle may get
-            pads (labour and the pad; no visit cost, no bay limit) [shifts].
+            pads (labour and the pad; no visit cost, no bay; at most ``window_slots``
+            of them) [shifts].
+        window_slots: Pad sets the window's crew can fit in its shift. 3: one brake crew,
+            about 4 h a pad set on a 12 h shift (assumption). Requests beyond it are
+            deferred (reason ``crew``), by the workshop's order [-].
         bays: Workshop bays for unscheduled work per shift: vehicles down (failure or
             other breakdown) occupy them first, the rest take service requests. 2: a small
             underground workshop (assumption) [-].
         hot_need: Vehicles needed on the hot route each working shift; each one short
-            costs ``shortfall``. 6: half the fleet, which leaves the other half for the
-            mild route, the shop and spares (assumption) [-].
+            costs ``shortfall``. 6: half the fleet on ore haulage (assumption) [-].
+        mild_need: Vehicles needed on the mild route (drift mucking, development) each
+            working shift; vehicles on the hot route beyond ``hot_need`` count towards it
+            (a ramp truck can muck a drift); each one short costs ``mild_shortfall``. 4:
+            with ``hot_need`` 10 of 12 vehicles must work, an availability target of 83%,
+            the range LHD fleets plan for (80-85%, assumption); a mine does not buy
+            vehicles to park them, so the spare duty is the exception, not the rule [-].
         initial_stock: Spare pad sets in stock at the start [-]. 4.
         max_order: Largest reorder quantity of one shift (the action's upper value) [-].
             8.
@@ -147,6 +162,8 @@ class FleetConfig:
     window_period: int = 14
     bays: int = 2
     hot_need: int = 6
+    mild_need: int = 4
+    window_slots: int = 3
     initial_stock: int = 4
     max_order: int = 8
     lead_time: int = 14
@@ -169,9 +186,10 @@ class FleetConfig:
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, int | np.integer) or not lo <= v <= hi:
                 raise ValueError(f"{ENV_ID}: {name} must be an int in [{lo}, {hi}], got {v!r}")
-        if self.hot_need > self.n_vehicles:
+        if self.hot_need + self.mild_need > self.n_vehicles:
             raise ValueError(
-                f"{ENV_ID}: hot_need ({self.hot_need}) must be <= n_vehicles ({self.n_vehicles})"
+                f"{ENV_ID}: hot_need + mild_need ({self.hot_need} + {self.mild_need}) must be"
+                f" <= n_vehicles ({self.n_vehicles}); a smaller fleet needs its own needs"
             )
         for name in ("breakdown_rate", "initial_age_max"):
             v = getattr(self, name)

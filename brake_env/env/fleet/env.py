@@ -36,9 +36,10 @@ class BrakeWearFleetEnv(gym.Env[NDArray[np.float32], NDArray[np.int64]]):
     window (every ``window_period`` shifts), dearer in an unscheduled shop visit (a fixed
     visit cost, a bay, the vehicle's shift), and a brake failure is dearest (damage,
     shifts of downtime). The workshop has ``bays`` bays, spares arrive ``lead_time``
-    shifts after they are ordered, and ``hot_need`` vehicles are needed on the ramp every
-    working shift. A per-pad RUL threshold ignores all of this; a policy has to plan
-    replacements and duties across the horizon to the next window.
+    shifts after they are ordered, ``hot_need`` vehicles are needed on the ramp and
+    ``mild_need`` more in the drifts every working shift, and the window's crew fits at
+    most ``window_slots`` pad sets. A per-pad RUL threshold ignores all of this; a policy
+    has to plan replacements and duties across the horizon to the next window.
 
     ## Action Space
 
@@ -85,7 +86,7 @@ class BrakeWearFleetEnv(gym.Env[NDArray[np.float32], NDArray[np.int64]]):
     Minus the shift's cost: the sum of ``info["costs"]``, whose keys are the fields of
     :class:`~brake_env.env.fleet.config.FleetCosts` (HighwayEnv style): ``pad`` (pads
     ordered), ``order``, ``labour`` (every fit), ``shop_visit``, ``holding``, ``damage``,
-    ``downtime``, ``shortfall``, ``deferred``.
+    ``downtime``, ``shortfall`` (hot route), ``mild_shortfall``, ``deferred``.
 
     ## Starting State
 
@@ -102,7 +103,8 @@ class BrakeWearFleetEnv(gym.Env[NDArray[np.float32], NDArray[np.int64]]):
     ## Info
 
     ``costs`` (terms by name), ``counts`` (fits by kind, visits, failures, breakdowns,
-    deferred, refused, ordered, arrived, shortfall), ``deferred`` ([(vehicle, reason)]),
+    deferred, refused, ordered, arrived, on_hot, on_mild, shortfall, mild_shortfall),
+    ``deferred`` ([(vehicle, reason)]),
     ``refused`` ([(vehicle, action, reason)]), ``vehicles`` (per-vehicle arrays: ``route``
     -1/0/1, ``events``, ``replaced``, ``failed``, ``broke_down``), ``window`` and
     ``truth`` (true volume, K, layer and regime of every pad; with ``truth=True`` also
@@ -114,7 +116,7 @@ class BrakeWearFleetEnv(gym.Env[NDArray[np.float32], NDArray[np.int64]]):
     ```python
     import gymnasium as gym
     import brake_env
-    env = gym.make("BrakeWearFleet-v0", n_vehicles=4, hot_need=2, window_period=14)
+    env = gym.make("BrakeWearFleet-v0", n_vehicles=4, hot_need=2, mild_need=1, window_slots=1)
     ```
 
     Every field of :class:`~brake_env.env.fleet.config.FleetConfig` is a keyword (``costs``
@@ -310,7 +312,8 @@ class BrakeWearFleetEnv(gym.Env[NDArray[np.float32], NDArray[np.int64]]):
         *, quantity: int, arrived: int, window: bool,
     ) -> dict[str, int]:  # fmt: skip
         c = self.config
-        on_hot = int((plan.route == 0).sum())
+        on_hot, on_mild = int((plan.route == 0).sum()), int((plan.route == 1).sum())
+        extra_hot = max(on_hot - c.hot_need, 0)  # a ramp truck can muck a drift
         return {
             "window_fits": int(plan.window_fit.sum()),
             "shop_fits": int(plan.shop_fit.sum()),
@@ -323,7 +326,9 @@ class BrakeWearFleetEnv(gym.Env[NDArray[np.float32], NDArray[np.int64]]):
             "ordered": quantity,
             "arrived": arrived,
             "on_hot": on_hot,
+            "on_mild": on_mild,
             "shortfall": 0 if window else max(c.hot_need - on_hot, 0),
+            "mild_shortfall": 0 if window else max(c.mild_need - on_mild - extra_hot, 0),
             "stock": self.shop.stock,
             "events": int(ev.n_done.sum()),
         }
@@ -340,6 +345,7 @@ class BrakeWearFleetEnv(gym.Env[NDArray[np.float32], NDArray[np.int64]]):
             "damage": w.damage * n["failures"],
             "downtime": w.downtime * n["downtime"],
             "shortfall": w.shortfall * n["shortfall"],
+            "mild_shortfall": w.mild_shortfall * n["mild_shortfall"],
             "deferred": w.deferred * n["deferred"],
         }
 

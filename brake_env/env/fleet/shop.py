@@ -5,12 +5,14 @@ beyond them follow one documented rule, and every request not served is reported
 
 1. At the start of a shift the orders due arrive. Vehicles down after a brake failure that
    are still waiting for a spare get one first (in vehicle order).
-2. Service requests are then served in this order: at a window, or by a vehicle already in
-   the shop, a replacement needs only a spare; otherwise it is an unscheduled visit and
-   needs a spare and a free bay (bays left after the vehicles down). Within each group the
-   pads that have braked the most events since installation go first (the workshop sees
-   the odometer; ties by vehicle index). A request that finds no spare, or no bay, is
-   **deferred**: the vehicle waits at the shop, parked for the shift, and must ask again.
+2. Service requests are then served in this order: at a window a replacement needs a
+   spare and one of the crew's ``window_slots``; by a vehicle already in the shop between
+   windows, only a spare; otherwise it is an unscheduled visit and needs a spare and a
+   free bay (bays left after the vehicles down). Within each group the pads that have
+   braked the most events since installation go first (the workshop sees the odometer;
+   ties by vehicle index). A request that finds no spare, no slot or no bay is
+   **deferred** (reason ``spare``, ``crew`` or ``bay``): the vehicle waits at the shop,
+   parked for the shift, and must ask again.
 3. A duty (hot or mild) given to a vehicle that cannot drive (down, or during a window) is
    **refused**: the vehicle is parked. Masks exclude these actions; the rule is for
    policies that do not honour masks (random exploration, ``check_env``).
@@ -39,8 +41,8 @@ class Plan:
         route: Route each vehicle brakes on (0 hot, 1 mild), -1 if it does not drive.
         window_fit, shop_fit, visit: Replacements at the window, by a vehicle already in
             the shop, and on an unscheduled visit.
-        deferred: (vehicle, reason) of each service request not served, reason ``spare``
-            or ``bay``.
+        deferred: (vehicle, reason) of each service request not served, reason ``spare``,
+            ``crew`` or ``bay``.
         refused: (vehicle, action name, reason) of each duty refused.
     """
 
@@ -110,9 +112,13 @@ class Workshop:
         plan = Plan.idle(n)
         asks = duty == SERVICE
         order = np.lexsort((np.arange(n), -pad_age))  # most events first, then index
-        first = asks & (down | window)  # a spare is all they need
+        first = asks & (down | window)  # no bay needed
+        slots = self.config.window_slots
         for v in order[first[order]]:
-            self._fit(plan, int(v), plan.window_fit if window else plan.shop_fit)
+            if window and slots == 0:
+                plan.deferred.append((int(v), "crew"))
+            elif self._fit(plan, int(v), plan.window_fit if window else plan.shop_fit):
+                slots -= 1
         bays = self.free_bays()
         for v in order[(asks & ~first)[order]]:
             if bays == 0:

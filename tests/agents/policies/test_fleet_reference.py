@@ -3,6 +3,7 @@ against brute force on tiny cases, and its policy in the env against its predict
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import itertools
 
@@ -18,15 +19,27 @@ from agents.policies.fleet_reference import (
 from agents.study.fleet_costs import run_episodes
 from brake_env.env.fleet.config import FleetConfig
 from brake_env.env.fleet.env import BrakeWearFleetEnv
-from brake_env.env.fleet.shop import HOT, PARK, SERVICE
+from brake_env.env.fleet.shop import HOT, MILD, PARK, SERVICE
 from brake_env.model.wear import WearModel
 
 TOY_WEAR = WearModel.from_layer_wear(np.ones(1), np.full(1, 0.5), np.ones(1), 1.0)
 
 
-def toy(h_new, w_new, **kwargs) -> ReferenceModel:
+def toy(h_new, w_new, r_mild=0.4, **kwargs) -> ReferenceModel:
+    kwargs = {"mild_need": 1, "window_slots": 1, **kwargs}
     cfg = FleetConfig(n_vehicles=2, hot_need=1, **kwargs)
-    return ReferenceModel(cfg, TOY_WEAR, np.array(h_new), np.array(w_new, dtype=float))
+    h = np.array(h_new)
+    r = np.full(int(h.max()) + 1, r_mild) + 0.05 * np.arange(h.max() + 1)  # h-dependent
+    return ReferenceModel(cfg, TOY_WEAR, h, np.array(w_new, dtype=float), np.clip(r, 0, 1))
+
+
+def shortfall(m: ReferenceModel, joint: tuple[int, ...]) -> float:
+    c = m.config
+    hot, mild = joint.count(HOT), joint.count(MILD)
+    extra = max(hot - c.hot_need, 0)
+    return c.costs.shortfall * max(c.hot_need - hot, 0) + c.costs.mild_shortfall * max(
+        c.mild_need - mild - extra, 0
+    )
 
 
 def brute_force_value(m: ReferenceModel, h0: tuple[int, ...]) -> float:
@@ -43,9 +56,13 @@ def brute_force_value(m: ReferenceModel, h0: tuple[int, ...]) -> float:
         if choice == SERVICE:
             fit = m.fit_cost if (window or d > 0) else m.visit_cost
             return [(w, (hn, nd), fit) for w, hn in new]
-        if h == 0:  # hot on an empty pad: failure, corrective fit
-            return [(w, (hn, 0), m.fail_cost) for w, hn in new]
-        return [(1 - p, (h - 1, 0), 0.0), (p, (h - 1, R), 0.0)]
+        fail = [(w, (hn, 0), m.fail_cost) for w, hn in new]  # corrective fit
+        step = fail if h == 0 else [(1 - p, (h - 1, 0), 0.0), (p, (h - 1, R), 0.0)]
+        if choice == HOT:
+            return step
+        r = float(m.r_mild[h])  # mild: a hot shift's step with probability r
+        stay = [(1 - p, (h, 0), 0.0), (p, (h, R), 0.0)]
+        return [(r * q, x, cost) for q, x, cost in step] + [(q * (1 - r), x, c) for q, x, c in stay]
 
     @functools.cache
     def value(t: int, state: tuple) -> float:
@@ -53,10 +70,13 @@ def brute_force_value(m: ReferenceModel, h0: tuple[int, ...]) -> float:
             return 0.0
         window = c.is_window(t)
         best = np.inf
-        for joint in itertools.product((HOT, PARK, SERVICE), repeat=2):
-            if any(j == HOT and (window or d > 0) for j, (_, d) in zip(joint, state, strict=True)):
+        for joint in itertools.product((HOT, MILD, PARK, SERVICE), repeat=2):
+            pairs = zip(joint, state, strict=True)
+            if any(j in (HOT, MILD) and (window or d > 0) for j, (_, d) in pairs):
                 continue
-            short = 0.0 if window else c.costs.shortfall * max(1 - joint.count(HOT), 0)
+            if window and joint.count(SERVICE) > c.window_slots:
+                continue
+            short = 0.0 if window else shortfall(m, joint)
             total = short
             per = [moves(h, d, j, window) for j, (h, d) in zip(joint, state, strict=True)]
             for combo in itertools.product(*per):
@@ -70,9 +90,12 @@ def brute_force_value(m: ReferenceModel, h0: tuple[int, ...]) -> float:
     return value(0, tuple((h, 0) for h in h0))
 
 
-@pytest.mark.parametrize("rate", [0.0, 0.25])
-def test_program_value_is_the_brute_force_optimum(rate):
-    m = toy([2, 4], [0.3, 0.7], episode_shifts=6, window_period=3, breakdown_rate=rate)
+@pytest.mark.parametrize(("rate", "mild_need", "slots"), [(0.0, 1, 1), (0.25, 1, 1), (0.25, 0, 2)])
+def test_program_value_is_the_brute_force_optimum(rate, mild_need, slots):
+    m = toy(
+        [2, 4], [0.3, 0.7], episode_shifts=6, window_period=3, breakdown_rate=rate,
+        mild_need=mild_need, window_slots=slots,
+    )  # fmt: skip
     sol = solve(m)
     for h0 in itertools.product(range(m.H + 1), repeat=2):
         v = float(sol.values[0][h0[0], 0, h0[1], 0])
@@ -82,8 +105,10 @@ def test_program_value_is_the_brute_force_optimum(rate):
 
 
 def test_open_loop_enumeration_agrees_when_everything_is_deterministic():
-    """No breakdowns, one new-pad life: the optimum is the best of all action sequences."""
-    m = toy([3], [1.0], episode_shifts=5, window_period=3, breakdown_rate=0.0)
+    """No breakdowns, one new-pad life, mild wear 0 or a whole hot shift: the optimum is the
+    best of all action sequences."""
+    m = toy([3], [1.0], episode_shifts=5, window_period=3, breakdown_rate=0.0, r_mild=0.0)
+    m = dataclasses.replace(m, r_mild=np.array([0.0, 1.0, 0.0, 1.0]))
     c = m.config
     best = np.inf
     steps = [joint_choices(m, c.is_window(t)) for t in range(c.episode_shifts)]
@@ -91,13 +116,14 @@ def test_open_loop_enumeration_agrees_when_everything_is_deterministic():
         h, cost = [1, 2], 0.0
         for t, joint in enumerate(plan):
             window = c.is_window(t)
-            cost += 0.0 if window else c.costs.shortfall * max(1 - joint.count(HOT), 0)
+            cost += 0.0 if window else shortfall(m, joint)
             for v, j in enumerate(joint):
+                wears = j == HOT or (j == MILD and m.r_mild[h[v]] == 1.0)
                 if j == SERVICE:
                     cost, h[v] = cost + (m.fit_cost if window else m.visit_cost), 3
-                elif j == HOT and h[v] == 0:
+                elif wears and h[v] == 0:
                     cost, h[v] = cost + m.fail_cost, 3
-                elif j == HOT:
+                elif wears:
                     h[v] -= 1
         best = min(best, cost)
     assert float(solve(m).values[0][1, 0, 2, 0]) == pytest.approx(best)
@@ -112,15 +138,15 @@ def test_tail_makes_the_plan_keep_pads_going_at_the_end():
 
 def test_reference_model_rejects_big_fleets():
     with pytest.raises(ValueError, match="<= 2 vehicles"):  # checked before the atlas is read
-        ReferenceModel.build(FleetConfig(n_vehicles=3, hot_need=1), None)  # type: ignore[arg-type]
+        ReferenceModel.build(FleetConfig(n_vehicles=3, hot_need=1, mild_need=1), None)  # type: ignore[arg-type]
 
 
 @pytest.fixture(scope="module")
 def small_fleet():
     # K 2.5x the default's: pads last ~70 hot shifts, so a short episode has fits to plan
     cfg = FleetConfig(
-        n_vehicles=2, hot_need=1, episode_shifts=150, breakdown_rate=0.0, k_mean=5e-6,
-        k_std=5e-7,
+        n_vehicles=2, hot_need=1, mild_need=1, window_slots=1, episode_shifts=150,
+        breakdown_rate=0.0, k_mean=5e-6, k_std=5e-7,
     )  # fmt: skip
     env = BrakeWearFleetEnv(cfg)
     model = ReferenceModel.build(cfg, env.atlas, n_k=8)

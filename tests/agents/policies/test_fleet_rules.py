@@ -3,6 +3,8 @@ and every action respects the env's mask along episodes."""
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -96,6 +98,10 @@ def test_greedy_serves_lowest_rul_first_within_bays_and_stock():
     # at a window only the stock limits: 2 spares, the two lowest RUL
     a = greedy.predict(observation([8.0, 2.0, 5.0, 50.0], to_window=0, stock=2))[0]
     assert (a[:N] == SERVICE).tolist() == [False, True, True, False]
+    # ... and the window's crew: one slot, the lowest RUL only
+    crew = FleetRule(dataclasses.replace(LAYOUT, window_slots=1), greedy.params)
+    a = crew.predict(observation([8.0, 2.0, 5.0, 50.0], to_window=0, stock=2))[0]
+    assert (a[:N] == SERVICE).tolist() == [False, True, False, False]
 
 
 def test_duty_rule_sends_the_lowest_rul_to_the_spare_duty():
@@ -113,6 +119,23 @@ def test_duty_rule_sends_the_lowest_rul_to_the_spare_duty():
     # a vehicle in the shop cannot drive: the next healthiest takes the ramp
     a = rule.predict(observation([30.0, 80.0, 5.0, 60.0], down=[0, 2, 0, 0]))[0]
     assert a[:N].tolist() == [HOT, PARK, MILD, HOT]
+    # due-first: a pad replaced at the next window anyway (RUL there < 12, > must = 1)
+    # takes the ramp first, and a due pad on the mild need goes up the ramp too
+    due = FleetRule(
+        dataclasses.replace(LAYOUT, mild_need=2),
+        FleetRuleParams(must=1.0, window_limit=12.0, duty="due-first", spare_duty="park"),
+    )
+    a = due.predict(observation([30.0, 80.0, 9.0, 14.0], to_window=5))[0]
+    assert a[:N].tolist() == [MILD, MILD, HOT, HOT]  # 9 and 14 due: the ramp is theirs
+    a = due.predict(observation([9.0, 14.0, 10.0, 80.0], to_window=5))[0]
+    assert a[:N].tolist() == [HOT, HOT, HOT, MILD]  # three due: the third covers a drift
+    a = due.predict(observation([30.0, 80.0, 5.0, 60.0], to_window=5))[0]
+    assert a[:N].tolist() == [MILD, HOT, MILD, HOT]  # 5 would be at 0 < must: not due
+    # a mild need is filled after the hot need, healthiest first; the least RUL is spare
+    need = FleetRule(dataclasses.replace(LAYOUT, mild_need=1), parked.params)
+    assert need.predict(observation([30.0, 80.0, 5.0, 60.0]))[0][:N].tolist() == [
+        MILD, HOT, PARK, HOT,
+    ]  # fmt: skip
 
 
 def test_s_S_orders_up_to_S_below_s():
@@ -138,10 +161,12 @@ def test_bad_parameters_and_observations_raise_clearly():
 
 @pytest.fixture(scope="module")
 def tight_env():
-    """3 vehicles, 2 needed hot, 1 bay, 1 spare, fast wear: the limits bind often."""
+    """3 vehicles, 2 needed hot and 1 mild, 1 bay, 1 window slot, 1 spare, fast wear: the
+    limits bind often."""
     cfg = FleetConfig(
-        n_vehicles=3, hot_need=2, bays=1, initial_stock=1, lead_time=3, episode_shifts=60,
-        events_per_shift=200, k_mean=2e-5, k_std=2e-6, window_period=7, breakdown_rate=0.1,
+        n_vehicles=3, hot_need=2, mild_need=1, window_slots=1, bays=1, initial_stock=1,
+        lead_time=3, episode_shifts=60, events_per_shift=200, k_mean=2e-5, k_std=2e-6,
+        window_period=7, breakdown_rate=0.1,
     )  # fmt: skip
     return ExpectedRULObservation(BrakeWearFleetEnv(cfg)), FleetLayout.of(cfg)
 
@@ -177,7 +202,9 @@ def test_the_mask_rebuilt_from_the_observation_is_the_envs(tight_env):
 
 
 def test_closed_form_oracle_rul_is_the_simulated_ahead_one_within_a_few_percent():
-    env = ExpectedRULObservation(BrakeWearFleetEnv(n_vehicles=2, hot_need=1, episode_shifts=5))
+    env = ExpectedRULObservation(
+        BrakeWearFleetEnv(n_vehicles=2, hot_need=1, mild_need=1, episode_shifts=5)
+    )
     obs, _ = env.reset(seed=2)
     for _ in range(3):
         obs, *_ = env.step(np.array([HOT, HOT, 0]))

@@ -30,7 +30,9 @@ def test_paired_interval_difference_and_ratio():
 
 @pytest.fixture(scope="module")
 def tiny():
-    cfg = FleetConfig(n_vehicles=2, hot_need=1, episode_shifts=30, k_mean=1e-5, k_std=1e-6)
+    cfg = FleetConfig(
+        n_vehicles=2, hot_need=1, mild_need=1, episode_shifts=30, k_mean=1e-5, k_std=1e-6
+    )
     return ExpectedRULObservation(BrakeWearFleetEnv(cfg)), FleetLayout.of(cfg)
 
 

@@ -27,6 +27,7 @@ from brake_env.env.fleet.spaces import FLEET_FEATURES, VEHICLE_FEATURES, split_o
 SMALL = {
     "n_vehicles": 3,
     "hot_need": 1,
+    "mild_need": 1,
     "events_per_shift": 100,
     "episode_shifts": 60,
     "initial_age_max": 0.3,
@@ -166,6 +167,37 @@ def test_requests_beyond_bays_are_deferred_oldest_pad_first(make) -> None:
     assert info["counts"]["stock"] == 4 and env.truth()["pad_age"][served] == 0
 
 
+def test_window_crew_fits_window_slots_and_defers_the_rest(make) -> None:
+    env = make(window_period=2, initial_stock=3, window_slots=1, breakdown_rate=0.0)
+    env.reset(seed=3)
+    env.step(act(HOT, MILD, PARK))
+    age = env.truth()["pad_age"]
+    _, _, _, _, info = env.step(act(SERVICE, SERVICE, SERVICE))
+    order = [int(v) for v in np.lexsort((np.arange(3), -age))]  # most worn first
+    assert info["window"] and info["counts"]["window_fits"] == 1
+    assert info["vehicles"]["replaced"].tolist() == [v == order[0] for v in range(3)]
+    assert info["deferred"] == [(v, "crew") for v in order[1:]]
+    assert env.shop.stock == 2  # a deferred request takes no spare
+
+
+def test_shortfall_counts_hot_then_mild_need(make) -> None:
+    env = make(n_vehicles=4, hot_need=2, mild_need=1, window_period=10_000, breakdown_rate=0.0)
+    w = env.config.costs
+    env.reset(seed=0)
+    cases = {  # duties -> (hot short, mild short)
+        (HOT, HOT, MILD, PARK): (0, 0),
+        (HOT, PARK, PARK, PARK): (1, 1),
+        (HOT, HOT, HOT, PARK): (0, 0),  # an extra ramp truck covers the drift
+        (MILD, MILD, MILD, PARK): (2, 0),
+        (PARK, PARK, PARK, PARK): (2, 1),
+    }
+    for duties, (hot, mild) in cases.items():
+        _, _, _, _, info = env.step(np.array([*duties, 0]))
+        assert (info["counts"]["shortfall"], info["counts"]["mild_shortfall"]) == (hot, mild)
+        assert info["costs"]["shortfall"] == hot * w.shortfall
+        assert info["costs"]["mild_shortfall"] == mild * w.mild_shortfall
+
+
 def test_window_fits_cost_labour_only(make) -> None:
     env = make(window_period=2, initial_stock=3)
     env.reset(seed=0)
@@ -174,11 +206,14 @@ def test_window_fits_cost_labour_only(make) -> None:
     assert info["window"] and info["counts"]["window_fits"] == 2
     assert info["costs"]["labour"] == 2 * env.config.costs.labour
     assert info["costs"]["shop_visit"] == 0.0 and info["costs"]["shortfall"] == 0.0
+    assert info["costs"]["mild_shortfall"] == 0.0  # nobody works in a window
     assert r == -sum(info["costs"].values())
 
 
 def test_failure_costs_damage_downtime_and_shortfall(make) -> None:
-    env = make(window_period=10_000, breakdown_rate=0.0, hot_need=3, episode_shifts=200)
+    env = make(
+        window_period=10_000, breakdown_rate=0.0, hot_need=3, mild_need=0, episode_shifts=200
+    )
     env.reset(seed=4)
     totals = dict.fromkeys(env.config.costs.__dataclass_fields__, 0.0)
     failed_at = None
@@ -230,6 +265,10 @@ def test_config_validation() -> None:
         FleetConfig.from_kwargs(n_vehicle=3)
     with pytest.raises(ValueError, match="hot_need"):
         FleetConfig(n_vehicles=2, hot_need=3)
+    with pytest.raises(ValueError, match="mild_need"):
+        FleetConfig(n_vehicles=4, hot_need=2, mild_need=3)
+    with pytest.raises(ValueError, match="window_slots"):
+        FleetConfig(window_slots=-1)
     with pytest.raises(ValueError, match="lead_time"):
         FleetConfig(lead_time=0)
     with pytest.raises(ValueError, match="breakdown_rate"):

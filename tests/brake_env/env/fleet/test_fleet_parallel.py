@@ -20,6 +20,7 @@ from brake_env.env.fleet.parallel import STORE, BrakeWearFleetParallelEnv
 SMALL = {
     "n_vehicles": 3,
     "hot_need": 1,
+    "mild_need": 1,
     "events_per_shift": 100,
     "episode_shifts": 60,
     "initial_age_max": 0.3,
