@@ -120,6 +120,8 @@ def main() -> None:
     cols = list(rows[-1])
     print(table([cols, *([_fmt(r.get(c, "")) for c in cols] for r in rows)], a.markdown))
     _room(best.name, results[best.name], ref_eps)
+    _every_gap(results, ref_eps)
+    _terms({"reference": ref_eps, best.name: results[best.name]}, a.markdown)
     realised = np.array([e.model_terms for e in ref_eps])
     check = paired_interval(realised, predicted, "difference")
     print(
@@ -164,6 +166,44 @@ def _room(name: str, best: list[EpisodeCost], ref: list[EpisodeCost]) -> None:
         f" {rm.mean():.4g}; gap {paired_interval(xm, rm, 'difference')},"
         f" ratio {paired_interval(xm, rm, 'ratio')}"
     )
+
+
+def _every_gap(results: dict[str, list[EpisodeCost]], ref: list[EpisodeCost]) -> None:
+    """The smallest gap among all heuristics (chosen on evaluation: context, not a claim)
+    and how many of the heuristics' gap intervals exclude 0."""
+    r = np.array([e.per_vehicle_shift for e in ref])
+    gaps = {
+        n: paired_interval(np.array([e.per_vehicle_shift for e in eps]), r, "difference")
+        for n, eps in results.items()
+    }
+    low = min(gaps, key=lambda n: gaps[n].point)
+    above = sum(g.low > 0 for g in gaps.values())
+    print(
+        f"  smallest gap on the evaluation episodes: {low} {gaps[low]}; {above} of"
+        f" {len(gaps)} heuristics' gap intervals exclude 0"
+    )
+
+
+def _terms(named: dict[str, list[EpisodeCost]], markdown: bool) -> None:
+    """Mean cost per vehicle-shift of each term (pads priced when fitted), and the
+    difference of the last policy from the first: where the gap comes from."""
+    names = list(named)
+    per = {n: _term_means(eps) for n, eps in named.items()}
+    rows = [["term", *names, f"{names[-1]} - {names[0]}"]]
+    for t in per[names[0]]:
+        vals = [per[n][t] for n in names]
+        if any(abs(v) > 0 for v in vals):
+            rows.append([t, *(f"{v:.3f}" for v in vals), f"{vals[-1] - vals[0]:+.3f}"])
+    print("cost per vehicle-shift by term (pads priced when fitted):")
+    print(table(rows, markdown))
+
+
+def _term_means(eps: list[EpisodeCost]) -> dict[str, float]:
+    out = {}
+    for t in eps[0].terms:
+        each = [(e.pad_price * e.fits if t == "pad" else e.terms[t]) / e.vehicles for e in eps]
+        out[t] = float(np.mean([x / e.shifts for x, e in zip(each, eps, strict=True)]))
+    return out
 
 
 def _fmt(v: Any) -> str:
