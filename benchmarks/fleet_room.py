@@ -45,16 +45,13 @@ from agents.policies.fleet_reference import ReferenceModel, ReferencePolicy, sol
 from agents.policies.fleet_view import ExpectedRULObservation, FleetLayout
 from agents.study.fleet_costs import EpisodeCost, paired_interval, run_episodes
 from agents.study.fleet_tuning import SPACES, tune
-from brake_env.env.fleet.config import FleetConfig
+from brake_env.env.fleet.config import SMALL_FLEET, FleetConfig
 from brake_env.env.fleet.env import BrakeWearFleetEnv
 from brake_env.env.fleet.wrappers import FleetRULObservation
 from brake_env.output import table, write_json
 from brake_env.prognostics.registry import make_predictor
 
 TUNE_SEED0 = 10_000
-# The default fleet (12 vehicles: 6 hot + 4 mild needed, 3 window slots, 2 bays) scaled by
-# 1/6, each count rounded up to 1: every vehicle is needed, and the window fits one pad set.
-SMALL_FLEET = {"n_vehicles": 2, "hot_need": 1, "mild_need": 1, "window_slots": 1, "bays": 1}
 BEST = "best combination"
 
 

@@ -3,6 +3,8 @@
 import importlib.util
 from pathlib import Path
 
+import numpy as np
+
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
 
@@ -45,3 +47,10 @@ def test_every_example_is_run_by_a_test() -> None:
     tests = "\n".join(p.read_text() for p in Path(__file__).parent.rglob("test_*.py"))
     untested = [p.stem for p in EXAMPLES.glob("*.py") if f'"{p.stem}"' not in tests]
     assert not untested, f"examples without a test that loads them: {untested}"
+
+
+def test_fleet_policies_example() -> None:
+    out = load("fleet_policies").main(episodes=1, shifts=40, tail=20)
+    assert len(out) == 4 and "perfect-information reference" in out
+    assert all(np.isfinite(r["cost"]) and r["cost"] >= 0 for r in out.values())
+    assert out["perfect-information reference"]["failures"] == 0

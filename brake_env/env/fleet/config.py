@@ -20,6 +20,10 @@ from brake_env.model.regime import WearRegime
 from brake_env.model.streams import SensorNoise
 
 ENV_ID = "BrakeWearFleet-v0"
+# The default fleet (12 vehicles: 6 needed hot + 4 mild, 3 window slots, 2 bays) scaled by
+# 1/6, each count rounded up to 1: every vehicle is needed and the window fits one pad set.
+# The size the perfect-information reference (an exact program) is solved for.
+SMALL_FLEET = {"n_vehicles": 2, "hot_need": 1, "mild_need": 1, "window_slots": 1, "bays": 1}
 
 
 @dataclass(frozen=True)

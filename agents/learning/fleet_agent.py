@@ -1,0 +1,146 @@
+"""MaskablePPO (sb3-contrib) on BrakeWearFleet-v0, the centralised env: one policy decides
+every vehicle's duty and the reorder each shift, with the env's action mask.
+
+The agent sees the fleet observation with a RUL appended per vehicle (the closed-form
+oracle's, :class:`~agents.policies.fleet_view.ExpectedRULObservation`, or any predictor's
+through :class:`~brake_env.env.fleet.wrappers.FleetRULObservation`), normalised by running
+statistics frozen at the end of training (SB3's ``VecNormalize``). Rewards are scaled by
+``reward_scale`` (a shift costs tens to thousands; PPO's value loss wants O(1)). Nothing is
+simulated ahead: the env runs with ``truth=False`` unless the RUL wrapper needs it.
+
+:class:`FleetAgent` has SB3's ``predict`` and rebuilds the mask from the observation
+(:meth:`~agents.policies.fleet_view.FleetView.mask`), so it runs wherever the fleet rules
+run (``agents.study.fleet_costs.run_episodes``) and is compared with them on the same
+episodes.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from numpy.typing import NDArray
+
+from agents.policies.fleet_view import ExpectedRULObservation, FleetLayout, FleetView
+from brake_env.env.fleet.config import FleetConfig
+from brake_env.env.fleet.env import BrakeWearFleetEnv
+from brake_env.model.atlas import Atlas
+
+F32 = NDArray[np.float32]
+
+
+@dataclass(frozen=True)
+class FleetTraining:
+    """MaskablePPO settings (SB3's defaults unless said; not tuned on evaluation episodes).
+
+    Attributes:
+        timesteps: Shifts of experience in total (all envs).
+        n_envs: Parallel envs (DummyVecEnv).
+        seed: Seed of the model, the envs' episode seeds and the normalisation.
+        learning_rate, n_steps, batch_size, n_epochs, ent_coef: PPO's.
+        gamma: Discount per shift: 0.995 looks ~200 shifts ahead, a pad's life on the ramp
+            (a replacement's consequences reach that far).
+        reward_scale: Rewards times this during training.
+        net_arch: Hidden layers of the policy and value networks.
+    """
+
+    timesteps: int = 200_000
+    n_envs: int = 4
+    seed: int = 0
+    learning_rate: float = 3e-4
+    n_steps: int = 512
+    batch_size: int = 256
+    n_epochs: int = 10
+    ent_coef: float = 0.01
+    gamma: float = 0.995
+    reward_scale: float = 1e-3
+    net_arch: tuple[int, ...] = (128, 128)
+
+    def __post_init__(self) -> None:
+        for name in ("timesteps", "n_envs", "n_steps", "batch_size", "n_epochs"):
+            if int(getattr(self, name)) < 1:
+                raise ValueError(f"FleetTraining: {name} must be >= 1, got {getattr(self, name)}")
+        if not 0.0 < self.gamma <= 1.0:
+            raise ValueError(f"FleetTraining: gamma must be in (0, 1], got {self.gamma}")
+        if not self.reward_scale > 0:
+            raise ValueError(f"FleetTraining: reward_scale must be > 0, got {self.reward_scale}")
+
+
+def oracle_fleet_env(config: FleetConfig, atlas: Atlas | None = None) -> gym.Env[Any, Any]:
+    """The fleet env with the closed-form oracle RUL appended (a reference's information
+    on the pads in service; for the twin's RUL wrap with ``FleetRULObservation``)."""
+    return ExpectedRULObservation(BrakeWearFleetEnv(config, atlas=atlas))
+
+
+class FleetAgent:
+    """A trained MaskablePPO with frozen observation statistics; SB3's ``predict``.
+
+    Args:
+        model: The MaskablePPO.
+        layout: Where the mask's inputs are in the (unnormalised) observation.
+        obs_mean, obs_var: Frozen running statistics of the observation.
+        clip: VecNormalize's clip of normalised observations.
+    """
+
+    def __init__(
+        self, model: Any, layout: FleetLayout, obs_mean: F32, obs_var: F32, clip: float = 10.0
+    ) -> None:
+        self.model, self.layout, self.clip = model, layout, clip
+        self.mean, self.std = obs_mean, np.sqrt(obs_var + 1e-8)
+        self.name = "MaskablePPO"
+
+    def normalize(self, obs: NDArray[Any]) -> F32:
+        return np.clip((obs - self.mean) / self.std, -self.clip, self.clip).astype(np.float32)
+
+    def predict(
+        self,
+        observation: NDArray[Any],
+        state: Any = None,
+        episode_start: Any = None,
+        deterministic: bool = True,
+    ) -> tuple[NDArray[np.int64], Any]:
+        obs = np.asarray(observation, dtype=np.float64)
+        mask = FleetView.read(obs, self.layout).mask(self.layout.max_order)
+        action, _ = self.model.predict(
+            self.normalize(obs), action_masks=mask, deterministic=deterministic
+        )
+        return np.asarray(action, dtype=np.int64), state
+
+    def __repr__(self) -> str:
+        return f"FleetAgent({self.name})"
+
+
+def train_fleet_agent(
+    make_env: Callable[[], gym.Env[Any, Any]],
+    layout: FleetLayout,
+    settings: FleetTraining,
+    callback: Any = None,
+) -> FleetAgent:
+    """Train MaskablePPO on ``settings.n_envs`` copies of ``make_env()``.
+
+    Each copy is masked by its base env's :meth:`action_masks`, its rewards are scaled and
+    its observations normalised (running statistics, frozen into the returned agent).
+    Episode seeds come from ``settings.seed`` (SB3 seeds env i with seed + i).
+    """
+    from sb3_contrib import MaskablePPO  # heavy optional dependencies (the fleet extra)
+    from sb3_contrib.common.wrappers import ActionMasker
+    from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
+
+    s = settings
+
+    def one() -> gym.Env[Any, Any]:
+        env = gym.wrappers.TransformReward(make_env(), lambda r: float(r) * s.reward_scale)
+        return ActionMasker(env, lambda e: e.unwrapped.action_masks())  # type: ignore[attr-defined]
+
+    venv = VecNormalize(DummyVecEnv([one] * s.n_envs), norm_obs=True, norm_reward=False)
+    model = MaskablePPO(
+        "MlpPolicy", venv, learning_rate=s.learning_rate, n_steps=s.n_steps,
+        batch_size=s.batch_size, n_epochs=s.n_epochs, ent_coef=s.ent_coef, gamma=s.gamma,
+        policy_kwargs={"net_arch": list(s.net_arch)}, seed=s.seed, verbose=0, device="cpu",
+    )  # fmt: skip
+    model.learn(total_timesteps=s.timesteps, callback=callback)
+    rms: Any = venv.obs_rms  # one RunningMeanStd: the observation is a Box
+    return FleetAgent(model, layout, rms.mean.astype(np.float32), rms.var.astype(np.float32))

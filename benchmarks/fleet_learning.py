@@ -1,0 +1,129 @@
+"""A first look at learning on BrakeWearFleet-v0 (issue 21's first slice): MaskablePPO on the
+small fleet with the oracle's RUL, against the best tuned heuristic and the
+perfect-information reference of ``benchmarks/fleet_room.py``, on the same evaluation
+episodes (common random numbers).
+
+1. The heuristic is rebuilt from the parameters ``fleet_room.py --json`` saved (``tuned``):
+   the one ``--heuristic`` names (default: the best combination, the one selected there).
+2. MaskablePPO (``agents.learning.fleet_agent``) is trained for ``--timesteps`` shifts on
+   ``--n-envs`` envs, one model per ``--seeds`` seed (episode seeds from the training seed,
+   apart from the evaluation seeds 0..); every ``--eval-every`` shifts the agent's cost on
+   ``--curve-seeds`` tuning episodes (seeds from 20,000) is recorded: a learning curve.
+3. Agent, heuristic and reference run the evaluation episodes (``--eval-seeds``, from 0);
+   cost per vehicle-shift, paired BCa intervals of each agent's difference from the
+   heuristic and from the reference.
+
+A small budget trains little: the figures say what this budget reached, not what learning
+can reach. Run: ``.venv/bin/python benchmarks/fleet_learning.py --room-json room.json
+[--timesteps 100000] [--seeds 0] [--eval-seeds 40] [--json out.json]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from typing import Any
+
+import numpy as np
+
+from agents.learning.fleet_agent import (
+    FleetAgent,
+    FleetTraining,
+    oracle_fleet_env,
+    train_fleet_agent,
+)
+from agents.policies.fleet_reference import ReferenceModel, ReferencePolicy, solve
+from agents.policies.fleet_view import FleetLayout
+from agents.study.fleet_costs import evaluate, paired_interval
+from agents.study.fleet_tuning import SPACES
+from brake_env.env.brake_wear import default_atlas
+from brake_env.env.fleet.config import SMALL_FLEET, FleetConfig
+from brake_env.output import write_json
+
+CURVE_SEED0 = 20_000
+
+
+class _Curve:
+    """SB3 callback: the agent's mean cost on the curve seeds every ``every`` shifts."""
+
+    def __init__(self, every: int, run: Any) -> None:
+        from stable_baselines3.common.callbacks import BaseCallback
+
+        outer = self
+
+        class _CB(BaseCallback):  # type: ignore[misc]
+            def _on_step(self) -> bool:
+                if self.num_timesteps >= outer.next:
+                    outer.points.append((self.num_timesteps, run(self.model)))
+                    outer.next += every
+                return True
+
+        self.next, self.points, self.callback = every, [], _CB()
+
+
+def main() -> None:
+    import optuna
+    import torch
+
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--room-json", required=True, help="fleet_room.py --json output")
+    ap.add_argument("--heuristic", default="best combination")
+    ap.add_argument("--timesteps", type=int, default=100_000)
+    ap.add_argument("--n-envs", type=int, default=4)
+    ap.add_argument("--seeds", type=int, nargs="+", default=[0])
+    ap.add_argument("--eval-seeds", type=int, default=40)
+    ap.add_argument("--curve-seeds", type=int, default=4)
+    ap.add_argument("--eval-every", type=int, default=20_000)
+    ap.add_argument("--shifts", type=int, default=365)
+    ap.add_argument("--tail", type=int, default=200)
+    ap.add_argument("--json", default=None)
+    a = ap.parse_args()
+    torch.set_num_threads(1)  # one core per run; run seeds side by side
+    t0 = time.time()
+    cfg = FleetConfig(**SMALL_FLEET, episode_shifts=a.shifts)
+    atlas = default_atlas(cfg.preset)
+    env, layout = oracle_fleet_env(cfg, atlas), FleetLayout.of(cfg)
+    with open(a.room_json) as f:
+        params = json.load(f)["tuned"][a.heuristic]
+    rule = SPACES[a.heuristic](optuna.trial.FixedTrial(params), layout, cfg.window_period)
+    model = ReferenceModel.build(cfg, atlas)
+    ref = ReferencePolicy(env, model, solve(model, a.tail), rule.params.s, rule.params.S)
+    seeds = list(range(a.eval_seeds))
+    cost = {a.heuristic: evaluate(env, rule, seeds), "reference": evaluate(env, ref, seeds)}
+    curves: dict[str, list[tuple[int, float]]] = {}
+    curve_seeds = list(range(CURVE_SEED0, CURVE_SEED0 + a.curve_seeds))
+    for seed in a.seeds:
+        settings = FleetTraining(timesteps=a.timesteps, n_envs=a.n_envs, seed=seed)
+        curve = _Curve(a.eval_every, lambda m: _agent_cost(m, env, layout, curve_seeds))
+        agent = train_fleet_agent(
+            lambda: oracle_fleet_env(cfg, atlas), layout, settings, curve.callback
+        )
+        name = f"MaskablePPO seed {seed}"
+        cost[name] = evaluate(env, agent, seeds, check_masks=True)
+        curves[name] = curve.points
+    print(f"Small fleet {SMALL_FLEET}, {a.shifts} shifts, oracle RUL; MaskablePPO"
+          f" {a.timesteps} shifts on {a.n_envs} envs per seed; {a.eval_seeds} evaluation"
+          f" episodes (seeds 0..{a.eval_seeds - 1})")  # fmt: skip
+    h, r = cost[a.heuristic], cost["reference"]
+    for name, x in cost.items():
+        line = f"  {name:>28}: {x.mean():8.3f} per vehicle-shift"
+        if name not in (a.heuristic, "reference"):
+            line += f"; - {a.heuristic} {paired_interval(x, h, 'difference')}"
+            line += f"; - reference {paired_interval(x, r, 'difference')}"
+            line += f"; curve {[(n, round(c, 2)) for n, c in curves[name]]}"
+        print(line)
+    print(f"wall time {time.time() - t0:.0f} s")
+    if a.json:
+        write_json({"cost": {k: v.tolist() for k, v in cost.items()}, "curves": curves}, a.json)
+
+
+def _agent_cost(model: Any, env: Any, layout: FleetLayout, seeds: list[int]) -> float:
+    """The model's mean cost on ``seeds`` with the training env's current statistics."""
+    rms = model.get_env().obs_rms
+    agent = FleetAgent(model, layout, rms.mean.astype(np.float32), rms.var.astype(np.float32))
+    return float(evaluate(env, agent, seeds).mean())
+
+
+if __name__ == "__main__":
+    main()
