@@ -43,7 +43,7 @@ import numpy as np
 
 from agents.policies.fleet_reference import ReferenceModel, ReferencePolicy, solve
 from agents.policies.fleet_view import ExpectedRULObservation, FleetLayout
-from agents.study.fleet_costs import EpisodeCost, paired_interval, run_episodes
+from agents.study.fleet_costs import EpisodeCost, paired_interval, run_episodes, term_means
 from agents.study.fleet_tuning import SPACES, tune
 from brake_env.env.fleet.config import SMALL_FLEET, FleetConfig
 from brake_env.env.fleet.env import BrakeWearFleetEnv
@@ -185,7 +185,7 @@ def _terms(named: dict[str, list[EpisodeCost]], markdown: bool) -> None:
     """Mean cost per vehicle-shift of each term (pads priced when fitted), and the
     difference of the last policy from the first: where the gap comes from."""
     names = list(named)
-    per = {n: _term_means(eps) for n, eps in named.items()}
+    per = {n: term_means(eps) for n, eps in named.items()}
     rows = [["term", *names, f"{names[-1]} - {names[0]}"]]
     for t in per[names[0]]:
         vals = [per[n][t] for n in names]
@@ -193,14 +193,6 @@ def _terms(named: dict[str, list[EpisodeCost]], markdown: bool) -> None:
             rows.append([t, *(f"{v:.3f}" for v in vals), f"{vals[-1] - vals[0]:+.3f}"])
     print("cost per vehicle-shift by term (pads priced when fitted):")
     print(table(rows, markdown))
-
-
-def _term_means(eps: list[EpisodeCost]) -> dict[str, float]:
-    out = {}
-    for t in eps[0].terms:
-        each = [(e.pad_price * e.fits if t == "pad" else e.terms[t]) / e.vehicles for e in eps]
-        out[t] = float(np.mean([x / e.shifts for x, e in zip(each, eps, strict=True)]))
-    return out
 
 
 def _fmt(v: Any) -> str:

@@ -20,7 +20,7 @@ import numpy as np
 from agents.policies.fleet import opportunistic_rule, threshold_rule, window_rule
 from agents.policies.fleet_reference import ReferenceModel, ReferencePolicy, solve
 from agents.policies.fleet_view import ExpectedRULObservation, FleetLayout
-from agents.study.fleet_costs import run_episodes
+from agents.study.fleet_costs import run_episodes, term_means
 from brake_env.env.fleet.config import SMALL_FLEET, FleetConfig
 from brake_env.env.fleet.env import BrakeWearFleetEnv
 from brake_env.output import table
@@ -51,11 +51,7 @@ def main(episodes: int = 3, shifts: int = 180, tail: int = 100) -> dict[str, Any
     for name, policy in policies.items():
         eps = run_episodes(env, policy, seeds, check_masks=True)
         cost = float(np.mean([e.per_vehicle_shift for e in eps]))
-        terms = [
-            np.mean([(e.pad_price * e.fits if t == "pad" else e.terms[t]) for e in eps])
-            / (config.n_vehicles * shifts)
-            for t in SHOWN
-        ]
+        terms = [term_means(eps)[t] for t in SHOWN]
         failures = float(np.mean([e.counts["failures"] for e in eps]))
         fits = float(np.mean([e.counts["window_fits"] for e in eps]))
         out[name] = {"cost": cost, "failures": failures, "window_fits": fits}

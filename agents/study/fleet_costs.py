@@ -74,6 +74,16 @@ class EpisodeCost:
         return self.per_vehicle_shift - rest / (self.vehicles * self.shifts)
 
 
+def term_means(eps: Sequence[EpisodeCost]) -> dict[str, float]:
+    """Mean cost per vehicle-shift of each term over episodes, pads priced when fitted (as
+    :attr:`EpisodeCost.per_vehicle_shift`; the terms add up to its mean)."""
+    out = {}
+    for t in eps[0].terms:
+        each = [(e.pad_price * e.fits if t == "pad" else e.terms[t]) / e.vehicles for e in eps]
+        out[t] = float(np.mean([x / e.shifts for x, e in zip(each, eps, strict=True)]))
+    return out
+
+
 def run_episode(env: Any, policy: Any, seed: int, check_masks: bool = False) -> EpisodeCost:
     """Run ``policy`` (SB3's ``predict``) for one whole episode of ``env`` from ``seed``.
     With ``check_masks`` every action is checked against the env's mask (ValueError)."""

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from agents.policies.fleet_view import ExpectedRULObservation, FleetLayout
-from agents.study.fleet_costs import paired_interval, run_episode
+from agents.study.fleet_costs import paired_interval, run_episode, term_means
 from agents.study.fleet_tuning import SPACES, tune
 from brake_env.env.fleet.config import FleetConfig
 from brake_env.env.fleet.env import BrakeWearFleetEnv
@@ -45,6 +45,11 @@ def test_episode_costs_add_up(tiny):
     fitted = ep.total - ep.terms["pad"] + ep.pad_price * ep.fits
     assert ep.per_vehicle_shift == pytest.approx(fitted / 60)
     assert ep.model_terms <= ep.per_vehicle_shift
+    # the terms, pads priced when fitted, add up to the headline figure
+    eps = [ep, run_episode(env, rule, seed=2)]
+    terms = term_means(eps)
+    assert sum(terms.values()) == pytest.approx(np.mean([e.per_vehicle_shift for e in eps]))
+    assert terms["pad"] == pytest.approx(np.mean([e.pad_price * e.fits / 60 for e in eps]))
 
 
 def test_tuning_is_deterministic_for_a_seed(tiny):
