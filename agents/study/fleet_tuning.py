@@ -8,11 +8,12 @@ the combination keep the default reorder rule (s, S) = (2, 4); the (s, S) heuris
 threshold with its reorder point and level tuned as well.
 
 ``standby`` is a combination with its structure fixed: the healthiest vehicles drive the
-hot route, the others are parked (a standby whose pad is not worn), requests are served
-lowest RUL first, and the three replacement limits (anywhere, at a window, in the shop)
-are tuned directly. It is what the reference's decisions look like on two vehicles (one
-drives, the other waits with its pad unworn; pads are changed at windows, no visits), and
-it is tuned on the tuning seeds like the others.
+hot route, the next fill the mild need, the others are parked (a standby whose pad is not
+worn), requests are served lowest RUL first, and the three replacement limits (anywhere,
+at a window, in the shop) are tuned directly. It was what the reference's decisions look
+like on two vehicles when the mild route earned nothing (one drives, the other waits with
+its pad unworn; pads are changed at windows, no visits), and it is tuned on the tuning
+seeds like the others.
 """
 
 from __future__ import annotations
