@@ -13,6 +13,7 @@ episodes (common random numbers).
    cost per vehicle-shift, paired BCa intervals of each agent's difference from the
    heuristic and from the reference.
 
+``--reorder s S`` leaves the spares to the (s, S) rule (the agent decides duties only).
 A small budget trains little: the figures say what this budget reached, not what learning
 can reach. Run: ``.venv/bin/python benchmarks/fleet_learning.py --room-json room.json
 [--timesteps 100000] [--seeds 0] [--eval-seeds 40] [--json out.json]``.
@@ -77,6 +78,10 @@ def main() -> None:
     ap.add_argument("--eval-every", type=int, default=20_000)
     ap.add_argument("--shifts", type=int, default=365)
     ap.add_argument("--tail", type=int, default=200)
+    ap.add_argument(
+        "--reorder", type=int, nargs=2, default=None, metavar=("s", "S"),
+        help="spares by (s, S): the agent decides duties only",
+    )  # fmt: skip
     ap.add_argument("--json", default=None)
     a = ap.parse_args()
     torch.set_num_threads(1)  # one core per run; run seeds side by side
@@ -94,8 +99,11 @@ def main() -> None:
     curves: dict[str, list[tuple[int, float]]] = {}
     curve_seeds = list(range(CURVE_SEED0, CURVE_SEED0 + a.curve_seeds))
     for seed in a.seeds:
-        settings = FleetTraining(timesteps=a.timesteps, n_envs=a.n_envs, seed=seed)
-        curve = _Curve(a.eval_every, lambda m: _agent_cost(m, env, layout, curve_seeds))
+        reorder = None if a.reorder is None else (a.reorder[0], a.reorder[1])
+        settings = FleetTraining(a.timesteps, a.n_envs, seed, reorder=reorder)
+        curve = _Curve(
+            a.eval_every, lambda m, r=reorder: _agent_cost(m, env, layout, curve_seeds, r)
+        )
         agent = train_fleet_agent(
             lambda: oracle_fleet_env(cfg, atlas), layout, settings, curve.callback
         )
@@ -118,10 +126,11 @@ def main() -> None:
         write_json({"cost": {k: v.tolist() for k, v in cost.items()}, "curves": curves}, a.json)
 
 
-def _agent_cost(model: Any, env: Any, layout: FleetLayout, seeds: list[int]) -> float:
+def _agent_cost(model: Any, env: Any, layout: FleetLayout, seeds: list[int], reorder: Any) -> float:
     """The model's mean cost on ``seeds`` with the training env's current statistics."""
     rms = model.get_env().obs_rms
-    agent = FleetAgent(model, layout, rms.mean.astype(np.float32), rms.var.astype(np.float32))
+    mean, var = rms.mean.astype(np.float32), rms.var.astype(np.float32)
+    agent = FleetAgent(model, layout, mean, var, reorder=reorder)
     return float(evaluate(env, agent, seeds).mean())
 
 

@@ -24,9 +24,11 @@ import gymnasium as gym
 import numpy as np
 from numpy.typing import NDArray
 
+from agents.policies.fleet import reorder
 from agents.policies.fleet_view import ExpectedRULObservation, FleetLayout, FleetView
 from brake_env.env.fleet.config import FleetConfig
 from brake_env.env.fleet.env import BrakeWearFleetEnv
+from brake_env.env.fleet.shop import SERVICE
 from brake_env.model.atlas import Atlas
 
 F32 = NDArray[np.float32]
@@ -45,6 +47,8 @@ class FleetTraining:
             (a replacement's consequences reach that far).
         reward_scale: Rewards times this during training.
         net_arch: Hidden layers of the policy and value networks.
+        reorder: (s, S) to reorder spares by rule (the agent then decides duties only;
+            :class:`ReorderBy`), or None for the agent to choose the order quantity too.
     """
 
     timesteps: int = 200_000
@@ -58,6 +62,7 @@ class FleetTraining:
     gamma: float = 0.995
     reward_scale: float = 1e-3
     net_arch: tuple[int, ...] = (128, 128)
+    reorder: tuple[int, int] | None = None
 
     def __post_init__(self) -> None:
         for name in ("timesteps", "n_envs", "n_steps", "batch_size", "n_epochs"):
@@ -65,6 +70,10 @@ class FleetTraining:
                 raise ValueError(f"FleetTraining: {name} must be >= 1, got {getattr(self, name)}")
         if not 0.0 < self.gamma <= 1.0:
             raise ValueError(f"FleetTraining: gamma must be in (0, 1], got {self.gamma}")
+        if self.reorder is not None and not 0 <= self.reorder[0] <= self.reorder[1]:
+            raise ValueError(
+                f"FleetTraining: reorder must be (s, S), 0 <= s <= S, got {self.reorder}"
+            )
         if not self.reward_scale > 0:
             raise ValueError(f"FleetTraining: reward_scale must be > 0, got {self.reward_scale}")
 
@@ -75,6 +84,33 @@ def oracle_fleet_env(config: FleetConfig, atlas: Atlas | None = None) -> gym.Env
     return ExpectedRULObservation(BrakeWearFleetEnv(config, atlas=atlas))
 
 
+class ReorderBy(gym.ActionWrapper[Any, NDArray[np.int64], NDArray[np.int64]]):
+    """The agent decides duties only; spares are reordered by (s, S) on the inventory
+    position after this shift's service requests (:func:`agents.policies.fleet.reorder`).
+
+    Args:
+        env: BrakeWearFleet-v0 (possibly wrapped).
+        s, S: Reorder point and order-up-to level.
+    """
+
+    def __init__(self, env: gym.Env[Any, NDArray[np.int64]], s: int, S: int) -> None:
+        super().__init__(env)
+        self.s, self.S = s, S
+        nvec = env.action_space.nvec  # type: ignore[attr-defined]
+        self.n = len(nvec) - 1
+        self.action_space = gym.spaces.MultiDiscrete(nvec[:-1])
+
+    def action(self, action: NDArray[np.int64]) -> NDArray[np.int64]:
+        base: Any = self.env.unwrapped
+        fits = int((np.asarray(action) == SERVICE).sum())
+        q = reorder(base.shop.stock, base.shop.in_transit, fits, self.s, self.S,
+                    base.config.max_order)  # fmt: skip
+        return np.append(np.asarray(action, dtype=np.int64), q)
+
+    def action_masks(self) -> NDArray[np.bool_]:
+        return self.env.unwrapped.action_masks()[: 4 * self.n]  # type: ignore[attr-defined]
+
+
 class FleetAgent:
     """A trained MaskablePPO with frozen observation statistics; SB3's ``predict``.
 
@@ -83,12 +119,14 @@ class FleetAgent:
         layout: Where the mask's inputs are in the (unnormalised) observation.
         obs_mean, obs_var: Frozen running statistics of the observation.
         clip: VecNormalize's clip of normalised observations.
+        reorder: The (s, S) it was trained with (:class:`ReorderBy`), if any.
     """
 
     def __init__(
-        self, model: Any, layout: FleetLayout, obs_mean: F32, obs_var: F32, clip: float = 10.0
-    ) -> None:
-        self.model, self.layout, self.clip = model, layout, clip
+        self, model: Any, layout: FleetLayout, obs_mean: F32, obs_var: F32, clip: float = 10.0,
+        reorder: tuple[int, int] | None = None,
+    ) -> None:  # fmt: skip
+        self.model, self.layout, self.clip, self.reorder = model, layout, clip, reorder
         self.mean, self.std = obs_mean, np.sqrt(obs_var + 1e-8)
         self.name = "MaskablePPO"
 
@@ -103,11 +141,20 @@ class FleetAgent:
         deterministic: bool = True,
     ) -> tuple[NDArray[np.int64], Any]:
         obs = np.asarray(observation, dtype=np.float64)
-        mask = FleetView.read(obs, self.layout).mask(self.layout.max_order)
+        view = FleetView.read(obs, self.layout)
+        mask = view.mask(self.layout.max_order)
+        if self.reorder is not None:
+            mask = mask[: 4 * self.layout.n_vehicles]
         action, _ = self.model.predict(
             self.normalize(obs), action_masks=mask, deterministic=deterministic
         )
-        return np.asarray(action, dtype=np.int64), state
+        action = np.asarray(action, dtype=np.int64)
+        if self.reorder is not None:
+            fits = int((action == SERVICE).sum())
+            s, S = self.reorder
+            q = reorder(view.stock, view.transit, fits, s, S, self.layout.max_order)
+            action = np.append(action, q)
+        return action, state
 
     def __repr__(self) -> str:
         return f"FleetAgent({self.name})"
@@ -132,8 +179,11 @@ def train_fleet_agent(
     s = settings
 
     def one() -> gym.Env[Any, Any]:
-        env = gym.wrappers.TransformReward(make_env(), lambda r: float(r) * s.reward_scale)
-        return ActionMasker(env, lambda e: e.unwrapped.action_masks())  # type: ignore[attr-defined]
+        env = make_env()
+        if s.reorder is not None:
+            env = ReorderBy(env, *s.reorder)
+        env = gym.wrappers.TransformReward(env, lambda r: float(r) * s.reward_scale)
+        return ActionMasker(env, lambda e: e.get_wrapper_attr("action_masks")())
 
     venv = VecNormalize(DummyVecEnv([one] * s.n_envs), norm_obs=True, norm_reward=False)
     model = MaskablePPO(
@@ -143,4 +193,5 @@ def train_fleet_agent(
     )  # fmt: skip
     model.learn(total_timesteps=s.timesteps, callback=callback)
     rms: Any = venv.obs_rms  # one RunningMeanStd: the observation is a Box
-    return FleetAgent(model, layout, rms.mean.astype(np.float32), rms.var.astype(np.float32))
+    mean, var = rms.mean.astype(np.float32), rms.var.astype(np.float32)
+    return FleetAgent(model, layout, mean, var, reorder=s.reorder)

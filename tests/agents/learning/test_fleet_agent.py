@@ -3,13 +3,21 @@ test of the plumbing (masks, normalisation, determinism), not of learning."""
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
-from agents.learning.fleet_agent import FleetTraining, oracle_fleet_env, train_fleet_agent
+from agents.learning.fleet_agent import (
+    FleetTraining,
+    ReorderBy,
+    oracle_fleet_env,
+    train_fleet_agent,
+)
 from agents.policies.fleet_view import FleetLayout
 from agents.study.fleet_costs import run_episode
 from brake_env.env.fleet.config import SMALL_FLEET, FleetConfig
+from brake_env.env.fleet.shop import HOT, SERVICE
 
 pytest.importorskip("sb3_contrib")
 
@@ -53,3 +61,24 @@ def test_bad_training_settings_raise() -> None:
         FleetTraining(gamma=1.5)
     with pytest.raises(ValueError, match="n_envs"):
         FleetTraining(n_envs=0)
+    with pytest.raises(ValueError, match="reorder"):
+        FleetTraining(reorder=(3, 1))
+
+
+def test_reorder_by_rule_leaves_the_agent_the_duties(atlas) -> None:
+    env = ReorderBy(oracle_fleet_env(CFG, atlas), s=2, S=4)
+    assert tuple(env.action_space.nvec) == (4, 4)
+    env.reset(seed=0)
+    base = env.unwrapped
+    stock, transit = base.shop.stock, base.shop.in_transit
+    _, _, _, _, info = env.step(np.array([SERVICE, HOT]))
+    # the order is (s, S) on the position after the fit: stock + transit - 1 < 2 orders
+    position = stock + transit - 1
+    assert info["counts"]["ordered"] == (0 if position >= 2 else 4 - position)
+    assert env.action_masks().shape == (8,)
+    agent = train_fleet_agent(
+        lambda: oracle_fleet_env(CFG, atlas), FleetLayout.of(CFG),
+        dataclasses.replace(TINY, reorder=(2, 4)),
+    )  # fmt: skip
+    ep = run_episode(oracle_fleet_env(CFG, atlas), agent, seed=5, check_masks=True)
+    assert ep.shifts == 20 and ep.counts["ordered"] <= 4 * 20
