@@ -82,6 +82,7 @@ def main() -> None:
         "--reorder", type=int, nargs=2, default=None, metavar=("s", "S"),
         help="spares by (s, S): the agent decides duties only",
     )  # fmt: skip
+    ap.add_argument("--normalize-reward", action="store_true", help="VecNormalize's rewards")
     ap.add_argument("--json", default=None)
     a = ap.parse_args()
     torch.set_num_threads(1)  # one core per run; run seeds side by side
@@ -100,7 +101,9 @@ def main() -> None:
     curve_seeds = list(range(CURVE_SEED0, CURVE_SEED0 + a.curve_seeds))
     for seed in a.seeds:
         reorder = None if a.reorder is None else (a.reorder[0], a.reorder[1])
-        settings = FleetTraining(a.timesteps, a.n_envs, seed, reorder=reorder)
+        settings = FleetTraining(
+            a.timesteps, a.n_envs, seed, reorder=reorder, normalize_reward=a.normalize_reward
+        )
         curve = _Curve(
             a.eval_every, lambda m, r=reorder: _agent_cost(m, env, layout, curve_seeds, r)
         )

@@ -47,6 +47,8 @@ class FleetTraining:
             (a replacement's consequences reach that far).
         reward_scale: Rewards times this during training.
         net_arch: Hidden layers of the policy and value networks.
+        normalize_reward: Scale rewards by a running estimate of the return's spread
+            (SB3's ``VecNormalize(norm_reward=True)``), on top of ``reward_scale``.
         reorder: (s, S) to reorder spares by rule (the agent then decides duties only;
             :class:`ReorderBy`), or None for the agent to choose the order quantity too.
     """
@@ -62,6 +64,7 @@ class FleetTraining:
     gamma: float = 0.995
     reward_scale: float = 1e-3
     net_arch: tuple[int, ...] = (128, 128)
+    normalize_reward: bool = False
     reorder: tuple[int, int] | None = None
 
     def __post_init__(self) -> None:
@@ -185,7 +188,8 @@ def train_fleet_agent(
         env = gym.wrappers.TransformReward(env, lambda r: float(r) * s.reward_scale)
         return ActionMasker(env, lambda e: e.get_wrapper_attr("action_masks")())
 
-    venv = VecNormalize(DummyVecEnv([one] * s.n_envs), norm_obs=True, norm_reward=False)
+    envs = DummyVecEnv([one] * s.n_envs)
+    venv = VecNormalize(envs, norm_obs=True, norm_reward=s.normalize_reward, gamma=s.gamma)
     model = MaskablePPO(
         "MlpPolicy", venv, learning_rate=s.learning_rate, n_steps=s.n_steps,
         batch_size=s.batch_size, n_epochs=s.n_epochs, ent_coef=s.ent_coef, gamma=s.gamma,
