@@ -22,18 +22,7 @@ from brake_env.env.fleet.routes import MILD as MILD_ROUTE
 from brake_env.env.fleet.routes import route_mean
 from brake_env.env.fleet.shop import HOT, MILD, PARK, SERVICE
 from brake_env.env.fleet.spaces import FLEET_FEATURES, VEHICLE_FEATURES, split_observation
-
-# Small and fast: 3 vehicles, pads wearing 5x faster than the default (life ~2.4e4 events).
-SMALL = {
-    "n_vehicles": 3,
-    "hot_need": 1,
-    "mild_need": 1,
-    "events_per_shift": 100,
-    "episode_shifts": 60,
-    "initial_age_max": 0.3,
-    "k_mean": 1e-5,
-    "k_std": 1e-6,
-}
+from tests.brake_env.env.fleet.small import SMALL
 
 
 @pytest.fixture(scope="module")
@@ -81,7 +70,8 @@ from brake_env.env.fleet.env import BrakeWearFleetEnv
 from brake_env.env.fleet.routes import HOT as HOT_ROUTE
 from brake_env.env.fleet.routes import MILD as MILD_ROUTE
 from brake_env.env.fleet.routes import route_mean
-from tests.brake_env.env.fleet.test_fleet_env import SMALL, _episode_digest
+from tests.brake_env.env.fleet.small import SMALL
+from tests.brake_env.env.fleet.test_fleet_env import _episode_digest
 print(repr(_episode_digest(BrakeWearFleetEnv(**SMALL), 5, 30)))
 """
 

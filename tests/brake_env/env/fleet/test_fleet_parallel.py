@@ -16,17 +16,7 @@ pytest.importorskip("pettingzoo")
 from pettingzoo.test import parallel_api_test
 
 from brake_env.env.fleet.parallel import STORE, BrakeWearFleetParallelEnv
-
-SMALL = {
-    "n_vehicles": 3,
-    "hot_need": 1,
-    "mild_need": 1,
-    "events_per_shift": 100,
-    "episode_shifts": 60,
-    "initial_age_max": 0.3,
-    "k_mean": 1e-5,
-    "k_std": 1e-6,
-}
+from tests.brake_env.env.fleet.small import SMALL
 
 
 def test_parallel_api(atlas) -> None:
