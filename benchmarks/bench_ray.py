@@ -1,4 +1,4 @@
-"""The same validate-gap subset and the same compare subset in this process and on a local
+"""The same validate-gap, compare and fleet-study subsets in this process and on a local
 Ray with 1 and 2 workers, in one run (targets in brackets; docs/cluster.md).
 
 Each configuration runs the real command in a fresh process (``brakewear validate-gap`` /
@@ -10,8 +10,9 @@ in-process ones (timing fields aside) before any speed-up is printed.
 - 2 workers against this process [>= 1.7x faster];
 - 1 worker against this process [no more than 10% slower, i.e. >= 0.91x].
 
-Run: ``.venv/bin/python benchmarks/bench_ray.py [--json out.json] [--only validate|compare]``
-(about 12 minutes on 2 cores with the defaults).
+Run: ``.venv/bin/python benchmarks/bench_ray.py [--json out.json]
+[--only validate|compare|fleet]`` (about 12 minutes on 2 cores for the first two; the fleet
+study about 8 more).
 """
 
 from __future__ import annotations
@@ -44,6 +45,13 @@ COMPARE = [
     "compare", "--tune-pads", "100", "--eval-pads", "200", "--timesteps", "1",
     "--predictors", "none,physics,data,twin,oracle", "--agents", "", "--resamples", "1000",
     "--k-mean", "1e-5",
+]  # fmt: skip
+# The fleet study without agents: six predictors x two heuristics tuned and evaluated (12
+# units) and the reference, on 180-shift episodes, after the predictors are fitted (units).
+FLEET = [
+    "fleet-study", "--predictors", "none,physics,data,twin,window,oracle", "--heuristics",
+    "threshold", "(n, N)", "--trials", "4", "--tune-episodes", "2", "--eval-episodes", "12",
+    "--shifts", "180",
 ]  # fmt: skip
 TIMING_KEYS = {"seconds", "seconds_simulate", "seconds_diagnose", "timing_s", "settings"}
 
@@ -103,7 +111,7 @@ def study(
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--json", default=None, help="also write the figures here")
-    ap.add_argument("--only", choices=["validate", "compare"], default=None)
+    ap.add_argument("--only", choices=["validate", "compare", "fleet"], default=None)
     args = ap.parse_args()
     cache = os.environ.get("BRAKEWEAR_CACHE_DIR") or tempfile.mkdtemp(prefix="bench-ray-cache")
     subprocess.run(
@@ -116,7 +124,8 @@ def main() -> None:
     header = [["study", "where", "wall", "x in-process", "target", ""]]
     rows, record = [], {"cpus": os.cpu_count()}
     for name, argv, result in (("validate-gap", VALIDATE, "validation.json"),
-                               ("compare", COMPARE, "costs.json")):  # fmt: skip
+                               ("compare", COMPARE, "costs.json"),
+                               ("fleet-study", FLEET, "costs.json")):  # fmt: skip
         if args.only and not name.startswith(args.only):
             continue
         r, rec = study(name, argv, result, root, cache)

@@ -12,10 +12,17 @@ simulated ahead: the env runs with ``truth=False`` unless the RUL wrapper needs 
 (:meth:`~agents.policies.fleet_view.FleetView.mask`), so it runs wherever the fleet rules
 run (``agents.study.fleet_costs.run_episodes``) and is compared with them on the same
 episodes.
+
+A warm start by behaviour cloning (``teacher`` of :func:`train_fleet_agent`, e.g. a tuned
+:class:`~agents.policies.fleet.FleetRule`): a random initial policy sends vehicles to
+service far too often and PPO spends its budget unlearning it, so the policy can first be
+fitted to a heuristic's actions (:mod:`agents.learning.fleet_imitation`), then
+fine-tuned by PPO.
 """
 
 from __future__ import annotations
 
+import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
@@ -24,6 +31,7 @@ import gymnasium as gym
 import numpy as np
 from numpy.typing import NDArray
 
+from agents.learning.fleet_imitation import IMITATION_SEED0, Imitation, clone
 from agents.policies.fleet import reorder
 from agents.policies.fleet_view import ExpectedRULObservation, FleetLayout, FleetView
 from brake_env.env.fleet.config import FleetConfig
@@ -42,7 +50,7 @@ class FleetTraining:
         timesteps: Shifts of experience in total (all envs).
         n_envs: Parallel envs (DummyVecEnv).
         seed: Seed of the model, the envs' episode seeds and the normalisation.
-        learning_rate, n_steps, batch_size, n_epochs, ent_coef: PPO's.
+        learning_rate, n_steps, batch_size, n_epochs, ent_coef, clip_range: PPO's.
         gamma: Discount per shift: 0.995 looks ~200 shifts ahead, a pad's life on the ramp
             (a replacement's consequences reach that far).
         reward_scale: Rewards times this during training.
@@ -51,6 +59,16 @@ class FleetTraining:
             (SB3's ``VecNormalize(norm_reward=True)``), on top of ``reward_scale``.
         reorder: (s, S) to reorder spares by rule (the agent then decides duties only;
             :class:`ReorderBy`), or None for the agent to choose the order quantity too.
+        imitation_episodes: Episodes of the teacher recorded for the warm start (needs a
+            ``teacher``; 0: none). ``timesteps`` may then be 0 (the cloned policy alone).
+        imitation_epochs: Passes of behaviour cloning over the teacher's data.
+        imitation_lr: Adam's learning rate for the cloning (minibatches of ``batch_size``).
+        imitation_value: Also fit the value head to the discounted returns of the recorded
+            episodes (so that PPO's first advantages are not those of a random critic).
+        imitation_rounds: DAgger rounds after the teacher's episodes: the clone drives
+            ``imitation_episodes`` more episodes, the teacher labels its states, and the
+            policy is refitted on all the data (the clone's own mistakes lead to states
+            the teacher never visits, e.g. a pad near failure).
     """
 
     timesteps: int = 200_000
@@ -66,11 +84,32 @@ class FleetTraining:
     net_arch: tuple[int, ...] = (128, 128)
     normalize_reward: bool = False
     reorder: tuple[int, int] | None = None
+    clip_range: float = 0.2
+    imitation_episodes: int = 0
+    imitation_epochs: int = 20
+    imitation_lr: float = 1e-3
+    imitation_value: bool = True
+    imitation_rounds: int = 0
 
     def __post_init__(self) -> None:
-        for name in ("timesteps", "n_envs", "n_steps", "batch_size", "n_epochs"):
+        for name in ("n_envs", "n_steps", "batch_size", "n_epochs", "imitation_epochs"):
             if int(getattr(self, name)) < 1:
                 raise ValueError(f"FleetTraining: {name} must be >= 1, got {getattr(self, name)}")
+        if self.imitation_rounds < 0 or self.imitation_episodes < 0:
+            raise ValueError(f"FleetTraining: imitation_episodes and imitation_rounds must be"
+                             f" >= 0, got {self.imitation_episodes}"
+                             f" and {self.imitation_rounds}")  # fmt: skip
+        if self.imitation_episodes * (self.imitation_rounds + 1) >= IMITATION_SEED0:
+            raise ValueError(f"FleetTraining: imitation_episodes x (imitation_rounds + 1) must"
+                             f" be < {IMITATION_SEED0}")  # fmt: skip
+        if self.timesteps < (0 if self.imitation_episodes else 1):
+            raise ValueError(f"FleetTraining: timesteps must be >= 1 (>= 0 with"
+                             f" imitation_episodes), got {self.timesteps}")  # fmt: skip
+        if self.seed < 0:
+            raise ValueError(f"FleetTraining: seed must be >= 0, got {self.seed}")
+        for name in ("clip_range", "imitation_lr", "learning_rate"):
+            if not float(getattr(self, name)) > 0:
+                raise ValueError(f"FleetTraining: {name} must be > 0, got {getattr(self, name)}")
         if not 0.0 < self.gamma <= 1.0:
             raise ValueError(f"FleetTraining: gamma must be in (0, 1], got {self.gamma}")
         if self.reorder is not None and not 0 <= self.reorder[0] <= self.reorder[1]:
@@ -132,6 +171,7 @@ class FleetAgent:
         self.model, self.layout, self.clip, self.reorder = model, layout, clip, reorder
         self.mean, self.std = obs_mean, np.sqrt(obs_var + 1e-8)
         self.name = "MaskablePPO"
+        self.imitation: Imitation | None = None  # set by train_fleet_agent with a teacher
 
     def normalize(self, obs: NDArray[Any]) -> F32:
         return np.clip((obs - self.mean) / self.std, -self.clip, self.clip).astype(np.float32)
@@ -168,18 +208,36 @@ def train_fleet_agent(
     layout: FleetLayout,
     settings: FleetTraining,
     callback: Any = None,
+    teacher: Any = None,
 ) -> FleetAgent:
     """Train MaskablePPO on ``settings.n_envs`` copies of ``make_env()``.
 
     Each copy is masked by its base env's :meth:`action_masks`, its rewards are scaled and
     its observations normalised (running statistics, frozen into the returned agent).
     Episode seeds come from ``settings.seed`` (SB3 seeds env i with seed + i).
+
+    With ``settings.imitation_episodes`` > 0 the policy is first cloned from ``teacher``
+    (SB3's ``predict`` on the unnormalised observation, e.g. a tuned
+    :class:`~agents.policies.fleet.FleetRule`): its episodes are recorded on the training
+    copies (seeds :data:`IMITATION_SEED0` * (seed + 1) + k, round robin over the copies),
+    the observation statistics are updated with them, and the policy is fitted to them
+    (:mod:`~agents.learning.fleet_imitation`); each of ``imitation_rounds`` DAgger rounds
+    then records as many episodes driven by the clone, labelled by the teacher, and refits
+    on all the data; then PPO fine-tunes for ``settings.timesteps`` (none if 0). The
+    agent's ``imitation`` says how the cloning went.
     """
     from sb3_contrib import MaskablePPO  # heavy optional dependencies (the fleet extra)
     from sb3_contrib.common.wrappers import ActionMasker
     from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
 
     s = settings
+    if (teacher is None) != (s.imitation_episodes == 0):
+        raise ValueError(
+            "train_fleet_agent: a teacher needs settings.imitation_episodes > 0 and"
+            f" imitation_episodes > 0 needs a teacher (got {s.imitation_episodes}"
+            f" episodes, teacher {teacher!r})"
+        )
+    t0 = time.perf_counter()
 
     def one() -> gym.Env[Any, Any]:
         env = make_env()
@@ -193,9 +251,14 @@ def train_fleet_agent(
     model = MaskablePPO(
         "MlpPolicy", venv, learning_rate=s.learning_rate, n_steps=s.n_steps,
         batch_size=s.batch_size, n_epochs=s.n_epochs, ent_coef=s.ent_coef, gamma=s.gamma,
-        policy_kwargs={"net_arch": list(s.net_arch)}, seed=s.seed, verbose=0, device="cpu",
+        clip_range=s.clip_range, policy_kwargs={"net_arch": list(s.net_arch)}, seed=s.seed,
+        verbose=0, device="cpu",
     )  # fmt: skip
-    model.learn(total_timesteps=s.timesteps, callback=callback)
+    imitation = None if teacher is None else clone(model, venv, teacher, s, t0)
+    if s.timesteps > 0:
+        model.learn(total_timesteps=s.timesteps, callback=callback)
     rms: Any = venv.obs_rms  # one RunningMeanStd: the observation is a Box
     mean, var = rms.mean.astype(np.float32), rms.var.astype(np.float32)
-    return FleetAgent(model, layout, mean, var, reorder=s.reorder)
+    agent = FleetAgent(model, layout, mean, var, reorder=s.reorder)
+    agent.imitation = imitation
+    return agent

@@ -5,17 +5,22 @@ Every policy is run on the same episode seeds (an episode seed fixes the pads, t
 streams and the breakdowns), so two policies' costs on one seed are a pair. Intervals
 resample episodes, pairs kept together (``scipy.stats.bootstrap(paired=True)``, BCa, the
 percentile method when BCa is degenerate). A ratio is a ratio of means, never a t-interval.
+
+A learned policy is a distribution over training seeds: :func:`seeds_interval` gives the
+interquartile mean (IQM) of the seeds' mean costs, as rliable reports it, and a two-level
+bootstrap that resamples the seeds and, paired with a baseline's, the episodes.
 """
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.stats import bootstrap
+from scipy.stats import DegenerateDataWarning, bootstrap, trim_mean
 
 from agents.policies.fleet_view import respects
 from brake_env.env.fleet.config import COST_TERMS
@@ -162,10 +167,53 @@ def paired_interval(
     if np.allclose(x - y, (x - y)[0]) and statistic == "difference":
         return Interval(point, point, point, level)  # no spread: BCa is undefined
     for method in ("BCa", "percentile"):
-        res = bootstrap((x, y), stat, paired=True, vectorized=True, confidence_level=level,
-                        n_resamples=n_resamples, method=method,
-                        rng=np.random.default_rng(seed))  # fmt: skip
+        with warnings.catch_warnings():  # a degenerate BCa falls back to the percentile
+            warnings.simplefilter("ignore", RuntimeWarning)
+            warnings.simplefilter("ignore", DegenerateDataWarning)
+            res = bootstrap((x, y), stat, paired=True, vectorized=True, confidence_level=level,
+                            n_resamples=n_resamples, method=method,
+                            rng=np.random.default_rng(seed))  # fmt: skip
         lo, hi = res.confidence_interval
         if np.isfinite(lo) and np.isfinite(hi):
             return Interval(point, float(lo), float(hi), level)
     return Interval(point, float("nan"), float("nan"), level)
+
+
+def iqm(x: F64, axis: int = -1) -> F64:
+    """Interquartile mean: the mean of the middle half (25% trimmed off each end)."""
+    return np.asarray(trim_mean(x, 0.25, axis=axis))
+
+
+def seeds_interval(
+    per_seed: F64, baseline: F64, level: float = 0.95, n_resamples: int = 4000, seed: int = 0
+) -> dict[str, Interval]:
+    """IQM over seeds of an agent's mean cost, and its difference from and ratio to a
+    baseline policy's mean cost, with two-level bootstrap percentile intervals.
+
+    Args:
+        per_seed: (seeds, episodes) costs of the agent trained from each seed.
+        baseline: (episodes,) costs of the baseline on the same episodes.
+    """
+    x, b = np.asarray(per_seed, dtype=np.float64), np.asarray(baseline, dtype=np.float64)
+    if x.ndim != 2 or b.shape != x.shape[1:] or x.shape[0] < 1 or b.size < 2:
+        raise ValueError(f"seeds_interval: need (seeds, episodes) and (episodes,), got"
+                         f" {x.shape} and {b.shape}")  # fmt: skip
+    rng = np.random.default_rng(seed)
+    n_s, n_e = x.shape
+    pick_e = rng.integers(0, n_e, (n_resamples, n_e))
+    pick_s = rng.integers(0, n_s, (n_resamples, n_s))
+    seed_means = x[:, pick_e].mean(axis=-1)  # (seeds, resamples)
+    agent = iqm(np.take_along_axis(seed_means.T, pick_s, axis=1), axis=1)
+    base = b[pick_e].mean(axis=-1)
+    a = (1 - level) / 2 * 100
+
+    def interval(point: float, draws: F64) -> Interval:
+        lo, hi = np.percentile(draws, [a, 100 - a])
+        return Interval(point, float(lo), float(hi), level)
+
+    point = float(iqm(x.mean(axis=1)))
+    return {
+        "iqm": interval(point, agent),
+        "difference": interval(point - float(b.mean()), agent - base),
+        "ratio": interval(point / float(b.mean()), agent / base),
+    }

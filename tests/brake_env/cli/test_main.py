@@ -48,14 +48,20 @@ def test_simulate_same_seed_same_output(tmp_path) -> None:
     assert sa == sb
 
 
-def test_atlas_command_and_demo(tmp_path) -> None:
+def test_atlas_command_and_demo(tmp_path, monkeypatch) -> None:
+    import agents.commands.cli
+
+    # The fleet stage at a tiny budget (its own test covers it; here: the demo runs it).
+    tiny = {"heuristics": ("threshold",), "shifts": 20, "trials": 1, "episodes": 2}
+    monkeypatch.setattr(agents.commands.cli, "DEMO_FLEET", tiny)
     assert main(["atlas", "--out", str(tmp_path / "atlas"), "--quiet"]) == 0
     info = json.loads((tmp_path / "atlas" / "atlas.json").read_text())
     assert info["wear_per_event_ratio_end_fresh"] >= 1.2
     assert info["mean_temp_strictly_rising_everywhere"] is True
     assert (tmp_path / "atlas" / "calibration.png").stat().st_size > 0
     assert main(["demo", "--out", str(tmp_path / "demo"), *SMALL]) == 0
-    assert "(cannot-stop: the" in (tmp_path / "demo/report.md").read_text()
+    report = (tmp_path / "demo/report.md").read_text()
+    assert "(cannot-stop: the" in report and "## The fleet study" in report
 
 
 def test_bad_arguments_are_named(tmp_path, capsys) -> None:

@@ -1,0 +1,159 @@
+"""``brakewear fleet-study``: every policy x predictor on BrakeWearFleet-v0 on the same
+evaluation episodes (issue 21; README "The fleet study").
+
+Runs the units (:mod:`agents.commands.fleet_units`), summarises them
+(:mod:`agents.commands.fleet_summary`) into ``costs.json``, prints the tables, and draws the
+figures: one evaluation episode of the twin's (or the first agent predictor's) best
+policy, the agents' learning curves and the cost by term.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+from typing import Any
+
+from agents.commands.fleet_config import FleetStudyConfig, episodes_of, rebuild_rule, rul_env
+from agents.commands.fleet_summary import REFERENCE, summarise
+from agents.commands.fleet_units import run_units
+from brake_env.model.atlas import Atlas
+from brake_env.output import table, write_json
+from brake_env.runner import Runner
+
+
+def run_fleet_study(
+    config: FleetStudyConfig,
+    atlas: Atlas,
+    out: Path,
+    runner: Runner,
+    *,
+    progress: Any = None,
+    resume: bool = True,
+    n_resamples: int = 4000,
+) -> dict[str, Any]:
+    """Run, summarise and write ``out/costs.json`` and ``out/figures``; the summary."""
+    t0 = time.perf_counter()
+    units = run_units(config, atlas, out, runner, progress, resume)
+    summary = summarise(config, units, n_resamples)
+    summary["seconds"] = time.perf_counter() - t0
+    figures = _figures(config, atlas, units, summary, out)
+    summary["figures"] = [str(p.relative_to(out)) for p in figures]
+    write_json(summary, out / "costs.json")
+    return summary
+
+
+def _figures(
+    config: FleetStudyConfig, atlas: Atlas, units: dict[str, Any], summary: dict[str, Any],
+    out: Path,
+) -> list[Path]:  # fmt: skip
+    from agents.commands.fleet_plots import plot_curves, plot_episode, plot_terms, trace_episode
+
+    figures = [plot_terms(summary["terms"], out / "figures" / "cost_by_term.png")]
+    if summary["agents"]:
+        figures.append(plot_curves(summary["agents"], out / "figures" / "learning_curves.png"))
+    p = "twin" if "twin" in config.predictors else config.predictors[0]
+    h = summary["best_heuristic"][p]
+    fitted = None
+    if p != "oracle":
+        from agents.commands.fleet_units import fit_unit
+
+        fitted = fit_unit(p, atlas, config.seed, config.n_train_runs)
+    env = rul_env(config, atlas, p, fitted)
+    rule = rebuild_rule(config, h, units[config.heuristic_key(p, h)]["params"])
+    seed = config.eval_seeds()[0]
+    trace = trace_episode(env, rule, seed)
+    cost = episodes_of(units[config.heuristic_key(p, h)]["episodes"])[0].per_vehicle_shift
+    title = f"{h} tuned on the {p}'s RUL, evaluation episode {seed}: {cost:.1f} per vehicle-shift"
+    figures.append(plot_episode(trace, title, out / "figures" / f"episode_{p}.png"))
+    return figures
+
+
+def report(summary: dict[str, Any], markdown: bool = False) -> str:
+    """The study's tables as text: policies, the predictors' ranking, the agents."""
+    c = summary["config"]
+    lines = [
+        f"Fleet study: {c['size']} fleet ({c['fleet']['n_vehicles']} vehicles), {c['shifts']}"
+        f" shifts an episode; {c['eval_episodes']} evaluation episodes (the same for every"
+        f" policy); heuristics tuned with {c['trials']} Optuna trials ({c['trials_best']} for"
+        f" the combination) on {c['tune_episodes']} tuning episodes each. Cost per vehicle-shift,"
+        " pads priced when fitted; intervals 95%, paired over episodes."
+    ]
+    head = ["predictor", "policy", "cost", "tuning cost", "ratio to reference", "fits", "failures"]
+    rows = [head]
+    best = summary["best_heuristic"]
+    for r in summary["rows"]:
+        mark = " *" if best.get(r["predictor"]) == r["policy"] else ""
+        fits = r["window_fits"] + r["shop_fits"] + r["visits"] + r["corrective_fits"]
+        tuning = "" if r["tuning_cost"] is None else f"{r['tuning_cost']:.2f}"
+        ratio = _ivs(r.get("ratio_to_reference"))
+        rows.append([r["predictor"], r["policy"] + mark, f"{r['cost']:.2f}", tuning, ratio,
+                     f"{fits:.1f}", f"{r['failures']:.2f}"])  # fmt: skip
+    for a in summary["agents"].values():
+        rows.append([a["predictor"], f"{_agent_name(a)} (IQM of {a['seeds']} seeds)",
+                     _ivs(a["iqm"], 2), "", _ivs(a.get("ratio_to_reference")), "", ""])  # fmt: skip
+    lines += [table(rows, markdown), "* the predictor's best heuristic (on the tuning episodes)"]
+    rk = summary["ranking"]
+    lines.append("\nPredictors by their best heuristic's cost: "
+                 + ", ".join(f"{p} {rk['cost'][p]:.2f}" for p in rk["order"]))  # fmt: skip
+    rows = [["predictor", f"{rk['head']} minus it", f"{rk['head']} / it"]]
+    rows += [[p, _ivs(v["difference"]), _ivs(v["ratio"])] for p, v in rk["head_minus"].items()]
+    lines.append(table(rows, markdown))
+    for a in summary["agents"].values():
+        lines.append(
+            f"\n{_agent_name(a)} with the {a['predictor']}'s RUL, {a['seeds']} training seeds"
+            f" (cloned from: {a['teacher']}): IQM {_ivs(a['iqm'])}; minus the tuned"
+            f" {a['heuristic']}"
+            f" ({a['heuristic_cost']:.2f}): {_ivs(a['minus_heuristic'])}, ratio"
+            f" {_ivs(a['ratio_to_heuristic'])}; {a['seeds_beating_heuristic']} of {a['seeds']}"
+            f" seeds below it; training {min(a['train_seconds']):.0f}-"
+            f"{max(a['train_seconds']):.0f} s a seed"
+        )
+    return "\n".join(lines)
+
+
+def _agent_name(a: dict[str, Any]) -> str:
+    return "MaskablePPO" if a["kind"] == "central" else "parameter-shared MaskablePPO"
+
+
+def _ivs(d: dict[str, float] | None, digits: int = 3) -> str:
+    if not d:
+        return ""
+    return f"{d['point']:.{digits}f} [{d['low']:.{digits}f}, {d['high']:.{digits}f}]"
+
+
+# ---------------------------------------------------------------------- CLI
+def config_from_args(args: argparse.Namespace) -> FleetStudyConfig:
+    from agents.learning.fleet_agent import FleetTraining
+
+    training = FleetTraining(
+        timesteps=args.timesteps, normalize_reward=True, imitation_episodes=args.imitate,
+        imitation_epochs=30, imitation_rounds=args.dagger, learning_rate=args.learning_rate,
+        ent_coef=args.ent_coef,
+    )  # fmt: skip
+    return FleetStudyConfig(
+        size=args.size, shifts=args.shifts, predictors=args.predictors,
+        heuristics=tuple(args.heuristics), trials=args.trials, trials_best=args.trials_best,
+        tune_episodes=args.tune_episodes, eval_episodes=args.eval_episodes,
+        n_train_runs=args.n_train_runs, agent_predictors=args.agents,
+        agent_seeds=args.agent_seeds, shared_seeds=args.shared_seeds, training=training,
+        curve_every=args.curve_every, seed=args.seed,
+    )  # fmt: skip
+
+
+def study_and_report(
+    config: FleetStudyConfig, atlas: Atlas, out: Path, runner: Runner, quiet: bool = False,
+    resume: bool = True,
+) -> dict[str, Any]:  # fmt: skip
+    from tqdm import tqdm
+
+    def progress(label: str, total: int) -> Any:
+        return tqdm(total=total, desc=label, unit="unit", disable=quiet)
+
+    summary = run_fleet_study(config, atlas, out, runner, progress=progress, resume=resume)
+    print(report(summary))
+    print(f"wrote {out / 'costs.json'}, " + ", ".join(summary["figures"]))
+    return summary
+
+
+__all__ = ["REFERENCE", "config_from_args", "report", "run_fleet_study", "study_and_report"]

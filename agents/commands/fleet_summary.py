@@ -1,0 +1,158 @@
+"""The fleet study's figures from its units (``costs.json``): each policy's cost per
+vehicle-shift, its gap to the perfect-information reference, predictors ranked by their
+best policy's cost, and the agents aggregated over training seeds.
+
+Every interval pairs episodes (all policies ran the same evaluation episodes): BCa over
+episodes for two policies (:func:`~agents.study.fleet_costs.paired_interval`). An agent is
+a distribution over training seeds: its figure is the interquartile mean (IQM) of the
+seeds' mean costs, as rliable reports it, and its interval comes from a two-level
+bootstrap that resamples the seeds and, paired with the heuristic's, the episodes
+(percentile intervals of the IQM, its difference from the heuristic and their ratio).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from agents.commands.fleet_config import ORACLE, FleetStudyConfig, episodes_of
+from agents.commands.fleet_units import best_heuristic
+from agents.study.fleet_costs import (
+    EpisodeCost,
+    Interval,
+    paired_interval,
+    seeds_interval,
+    term_means,
+)
+
+F64 = NDArray[np.float64]
+REFERENCE = "perfect-information reference"
+AGENT = "MaskablePPO"
+
+
+def costs(eps: list[EpisodeCost]) -> F64:
+    return np.array([e.per_vehicle_shift for e in eps])
+
+
+def summarise(
+    config: FleetStudyConfig, units: dict[str, Any], n_resamples: int = 4000
+) -> dict[str, Any]:
+    """``costs.json``: the rows, the best heuristic per predictor, the predictors' ranking
+    and the agents' aggregate (the targets are read from it by
+    ``benchmarks/fleet_targets.py``)."""
+    eps = {(p, h): episodes_of(units[config.heuristic_key(p, h)]["episodes"])
+           for p in config.predictors for h in config.heuristics}  # fmt: skip
+    ref_key = config.reference_key()
+    ref = episodes_of(units[ref_key]["episodes"]) if ref_key in units else None
+    rows = []
+    if ref is not None:
+        rows.append(_row(ORACLE, REFERENCE, ref, None, None))
+    for (p, h), e in eps.items():
+        u = units[config.heuristic_key(p, h)]
+        rows.append(_row(p, h, e, ref, u["tuning_cost"], params=u["params"]))
+    best = {p: best_heuristic(config, units, p) for p in config.predictors}
+    ranking = _ranking(config, eps, best)
+    agents = {}
+    for kind, n in (("central", config.agent_seeds), ("shared", config.shared_seeds)):
+        for p in config.agent_predictors if n else ():
+            runs = [units[config.agent_key(p, s, kind)] for s in range(n)]
+            label = p if kind == "central" else f"{p}, shared"
+            agents[label] = _agents(runs, best[p], eps[(p, best[p])], ref=ref,
+                                    n_resamples=n_resamples)  # fmt: skip
+    out: dict[str, Any] = {
+        "config": _config_dict(config),
+        "rows": rows,
+        "best_heuristic": best,
+        "ranking": ranking,
+        "agents": agents,
+        "terms": {f"{p} / {best[p]}": term_means(eps[(p, best[p])]) for p in config.predictors},
+    }
+    if ref is not None:
+        out["terms"][REFERENCE] = term_means(ref)
+    return out
+
+
+def _config_dict(config: FleetStudyConfig) -> dict[str, Any]:
+    from dataclasses import asdict
+
+    d = asdict(config)
+    d["fleet"] = {k: v for k, v in asdict(config.fleet).items() if not isinstance(v, dict)}
+    return d
+
+
+def _row(
+    predictor: str, policy: str, eps: list[EpisodeCost], ref: list[EpisodeCost] | None,
+    tuning: float | None, params: dict[str, Any] | None = None,
+) -> dict[str, Any]:  # fmt: skip
+    x = costs(eps)
+    row: dict[str, Any] = {"predictor": predictor, "policy": policy, "cost": float(x.mean()),
+                           "tuning_cost": tuning}  # fmt: skip
+    if ref is not None and eps is not ref:
+        r = costs(ref)
+        row["gap_to_reference"] = _iv(paired_interval(x, r, "difference"))
+        row["ratio_to_reference"] = _iv(paired_interval(x, r, "ratio"))
+    for k in ("window_fits", "visits", "shop_fits", "corrective_fits", "failures", "shortfall"):
+        row[k] = float(np.mean([e.counts.get(k, 0.0) for e in eps]))
+    if params is not None:
+        row["params"] = params
+    return row
+
+
+def _ranking(
+    config: FleetStudyConfig, eps: dict[tuple[str, str], list[EpisodeCost]], best: dict[str, str]
+) -> dict[str, Any]:
+    """Each predictor's best heuristic's cost, and the twin's (or the first predictor's)
+    difference from every other predictor's best (paired over episodes)."""
+    order = sorted(config.predictors, key=lambda p: costs(eps[(p, best[p])]).mean())
+    head = "twin" if "twin" in config.predictors else order[0]
+    h = costs(eps[(head, best[head])])
+    against = {}
+    for p in config.predictors:
+        if p != head:
+            o = costs(eps[(p, best[p])])
+            against[p] = {"difference": _iv(paired_interval(h, o, "difference")),
+                          "ratio": _iv(paired_interval(h, o, "ratio"))}  # fmt: skip
+    return {
+        "order": order,
+        "cost": {p: float(costs(eps[(p, best[p])]).mean()) for p in config.predictors},
+        "head": head,
+        "head_minus": against,
+    }
+
+
+def _agents(
+    runs: list[dict[str, Any]], heuristic_name: str, heuristic: list[EpisodeCost], *,
+    ref: list[EpisodeCost] | None, n_resamples: int,
+) -> dict[str, Any]:  # fmt: skip
+    """One kind of agent with one predictor's RUL over its training seeds (``runs``),
+    against that predictor's best heuristic and the reference."""
+    per_seed = np.stack([costs(episodes_of(r["episodes"])) for r in runs])
+    h = costs(heuristic)
+    vs = seeds_interval(per_seed, h, n_resamples=n_resamples)
+    out: dict[str, Any] = {
+        "predictor": runs[0]["predictor"],
+        "kind": runs[0]["kind"],
+        "seeds": len(runs),
+        "seed_costs": per_seed.mean(axis=1).tolist(),
+        "iqm": _iv(vs["iqm"]),
+        "minus_heuristic": _iv(vs["difference"]),
+        "ratio_to_heuristic": _iv(vs["ratio"]),
+        "heuristic": heuristic_name,
+        "heuristic_cost": float(h.mean()),
+        "seeds_beating_heuristic": int((per_seed.mean(axis=1) < h.mean()).sum()),
+        "train_seconds": [float(r["seconds"]["train"]) for r in runs],
+        "curves": [{"timesteps": np.asarray(r["curve"]["timesteps"]).tolist(),
+                    "cost": np.asarray(r["curve"]["cost"]).tolist()} for r in runs],
+        "teacher": runs[0]["teacher"],
+    }  # fmt: skip
+    if ref is not None:
+        out["ratio_to_reference"] = _iv(
+            seeds_interval(per_seed, costs(ref), n_resamples=n_resamples)["ratio"]
+        )
+    return out
+
+
+def _iv(i: Interval) -> dict[str, float]:
+    return {"point": i.point, "low": i.low, "high": i.high}

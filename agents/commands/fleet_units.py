@@ -1,0 +1,309 @@
+"""The fleet study's units, and their run on a :class:`~brake_env.runner.Runner` (in this
+process or on Ray, the same figures), each kept in ``<out>/units`` as it finishes so that an
+interrupted study resumes.
+
+Units, each a module-level function of its arguments alone:
+
+- :func:`fit_unit`: one predictor fitted on freshly simulated training pads (not stored:
+  refitting is cheaper than keeping a fitted MLP; only predictors with work left are fit);
+- :func:`heuristic_unit`: one heuristic tuned with Optuna on the tuning episodes with one
+  predictor's RUL, then run on the evaluation episodes;
+- :func:`reference_unit`: the perfect-information reference (the exact program of
+  :mod:`agents.policies.fleet_reference`, small fleet only) on the evaluation episodes;
+- :func:`agent_unit`: MaskablePPO trained with one predictor's RUL from one training seed
+  (learning curve on separate episodes), then run on the evaluation episodes.
+
+Three rounds: the predictors with work left are fitted; every predictor x heuristic is
+tuned and evaluated; then the reference (its spares by the oracle's best heuristic's
+(s, S)) and the agents (each warm-started from its predictor's best heuristic when
+``training.imitation_episodes`` > 0).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import asdict, dataclass, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from agents.commands.fleet_config import (
+    ORACLE,
+    TRAIN_SEED0,
+    FleetStudyConfig,
+    episodes_dict,
+    layout,
+    rebuild_rule,
+    rul_env,
+)
+from agents.study.fleet_costs import run_episodes
+from agents.study.fleet_tuning import tune
+from brake_env.model.atlas import Atlas
+from brake_env.model.regime import WearRegime
+from brake_env.prognostics.protocol import Predictor
+from brake_env.runner import Runner, Unit
+from brake_env.units import open_store
+
+UNITS = "units"
+# (label, total) -> a bar with update(n) and close(), e.g. tqdm's
+Progress = Callable[[str, int], Any]
+
+
+def study_keys(config: FleetStudyConfig) -> list[str]:
+    """Every stored unit's key, in the order they run."""
+    keys = [config.heuristic_key(p, h) for p in config.predictors for h in config.heuristics]
+    if config.has_reference:
+        keys.append(config.reference_key())
+    keys += [config.agent_key(p, s, kind) for kind, p, s in config.agent_runs()]
+    return keys
+
+
+def best_heuristic(config: FleetStudyConfig, heuristics: dict[str, Any], predictor: str) -> str:
+    """The heuristic of least tuning cost with ``predictor``'s RUL (chosen on the tuning
+    episodes, never on the evaluation ones)."""
+    return min(
+        config.heuristics,
+        key=lambda h: heuristics[config.heuristic_key(predictor, h)]["tuning_cost"],
+    )
+
+
+def run_units(
+    config: FleetStudyConfig,
+    atlas: Atlas,
+    out: Path,
+    runner: Runner,
+    progress: Progress | None = None,
+    resume: bool = True,
+) -> dict[str, Any]:
+    """Every unit's result by key (:func:`study_keys`).
+
+    Raises:
+        ValueError: ``out/units`` holds units of other settings, or is in use.
+    """
+    keys = study_keys(config)
+    settings = {**config.settings(), "atlas": atlas.content_hash}
+    store = open_store(out / UNITS, settings, keys, "fleet-study") if resume else None
+    done = {k for k in keys if store is not None and k in store}
+
+    def run(units: list[Unit], label: str, kept: Any) -> dict[str, Any]:
+        bar = progress(label, len(units)) if progress and units else None
+        try:
+            return runner.run(units, kept, (lambda k, r: bar.update(1)) if bar else None)
+        finally:
+            if bar is not None:
+                bar.close()
+
+    needs = {
+        p for p in config.predictors if p != ORACLE and (
+            any(config.heuristic_key(p, h) not in done for h in config.heuristics)
+            or any(config.agent_key(q, s, kind) not in done
+                   for kind, q, s in config.agent_runs() if q == p)
+        )
+    }  # fmt: skip
+    a = runner.share(atlas)
+    fits = [Unit(f"fit-{p}", fit_unit, (p, a, config.seed, config.n_train_runs))
+            for p in config.predictors if p in needs]  # fmt: skip
+    fitted_by_key = run(fits, "fit predictors", None)
+    fitted = {k.removeprefix("fit-"): runner.share(v) for k, v in fitted_by_key.items()}
+    h_units = [
+        Unit(config.heuristic_key(p, h), heuristic_unit, (config, a, p, fitted.get(p), h))
+        for p in config.predictors for h in config.heuristics
+    ]  # fmt: skip
+    results = run(h_units, "tune and evaluate heuristics", store)
+    second = []
+    if config.has_reference:
+        best = best_heuristic(config, results, ORACLE) if ORACLE in config.predictors else None
+        s, S = _spares(config, results, best)
+        second.append(Unit(config.reference_key(), reference_unit, (config, a, s, S)))
+    for kind, p, s in config.agent_runs():
+        h = best_heuristic(config, results, p)
+        teacher = (h, results[config.heuristic_key(p, h)]["params"])
+        job = AgentRun(p, s, kind, teacher)
+        second.append(
+            Unit(config.agent_key(p, s, kind), agent_unit, (config, a, fitted.get(p), job))
+        )
+    label = "reference and agents" if config.agent_predictors else "reference"
+    results.update(run(second, label, store))
+    return results
+
+
+def _spares(config: FleetStudyConfig, results: dict[str, Any], best: str | None) -> tuple[int, int]:
+    """The reference's reorder rule: the oracle's best heuristic's (s, S) (the rules' default
+    when the oracle is not in the study)."""
+    from agents.policies.fleet import FleetRuleParams
+
+    if best is None:
+        p = FleetRuleParams()
+        return p.s, p.S
+    rule = rebuild_rule(config, best, results[config.heuristic_key(ORACLE, best)]["params"])
+    return int(rule.params.s), int(rule.params.S)
+
+
+def fit_unit(name: str, atlas: Atlas, seed: int, n_train_runs: int) -> Predictor:
+    """``name`` fitted on ``n_train_runs`` simulated run-to-failure pads (study's K)."""
+    from agents.study.tuning import fit_predictors
+
+    fitted, _ = fit_predictors((name,), atlas, seed, n_train_runs, WearRegime())
+    return fitted[name]
+
+
+def heuristic_unit(
+    config: FleetStudyConfig, atlas: Atlas, predictor: str, fitted: Predictor | None,
+    heuristic: str,
+) -> dict[str, Any]:  # fmt: skip
+    """Tune ``heuristic`` on the tuning episodes with ``predictor``'s RUL, then run it on
+    the evaluation episodes."""
+    t0 = time.perf_counter()
+    env = rul_env(config, atlas, predictor, fitted)
+    tuned = tune(heuristic, env, layout(config), config.tune_seeds(),
+                 config.trials_of(heuristic), sampler_seed=config.seed)  # fmt: skip
+    t1 = time.perf_counter()
+    eps = run_episodes(env, tuned.rule, config.eval_seeds(), check_masks=True)
+    return {
+        "predictor": predictor, "policy": heuristic, "params": tuned.params,
+        "tuning_cost": tuned.tuning_cost, "trials": tuned.trials,
+        "episodes": episodes_dict(eps),
+        "seconds": {"tune": t1 - t0, "evaluate": time.perf_counter() - t1},
+    }  # fmt: skip
+
+
+def reference_unit(config: FleetStudyConfig, atlas: Atlas, s: int, S: int) -> dict[str, Any]:
+    """The perfect-information reference on the evaluation episodes, spares by (s, S)."""
+    from agents.policies.fleet_reference import ReferenceModel, ReferencePolicy, solve
+
+    t0 = time.perf_counter()
+    env = rul_env(config, atlas, ORACLE, None)
+    model = ReferenceModel.build(config.fleet, atlas)
+    solution = solve(model, config.tail)
+    policy = ReferencePolicy(env, model, solution, s, S)
+    eps = run_episodes(env, policy, config.eval_seeds(), check_masks=True)
+    return {"predictor": ORACLE, "policy": "perfect-information reference", "s": s, "S": S,
+            "episodes": episodes_dict(eps), "seconds": time.perf_counter() - t0}  # fmt: skip
+
+
+@dataclass(frozen=True)
+class AgentRun:
+    """One agent of the study.
+
+    Attributes:
+        predictor: Whose RUL it acts on.
+        seed: Training seed (its episodes from 30,000 + 100 seed).
+        kind: ``central``: one policy decides the fleet, warm-started by cloning the
+            teacher when ``training.imitation_episodes`` > 0; ``shared``: one policy shared
+            by the vehicles (:mod:`agents.learning.fleet_shared`), spares by the teacher's
+            (s, S).
+        teacher: The predictor's best tuned heuristic: (name, parameters).
+    """
+
+    predictor: str
+    seed: int
+    kind: str
+    teacher: tuple[str, dict[str, Any]]
+
+
+def agent_unit(
+    config: FleetStudyConfig, atlas: Atlas, fitted: Predictor | None, run: AgentRun
+) -> dict[str, Any]:
+    """MaskablePPO trained with the predictor's RUL from the run's training seed; its
+    learning curve and its costs on the evaluation episodes."""
+    import torch
+
+    threads = torch.get_num_threads()
+    torch.set_num_threads(1)  # the same agent in this process and in a Ray worker
+    try:
+        return _agent(config, atlas, fitted, run)
+    finally:
+        torch.set_num_threads(threads)
+
+
+def _agent(
+    config: FleetStudyConfig, atlas: Atlas, fitted: Predictor | None, run: AgentRun
+) -> dict[str, Any]:
+    predictor, seed, kind, teacher = run.predictor, run.seed, run.kind, run.teacher
+    from agents.learning.fleet_agent import FleetAgent, train_fleet_agent
+    from agents.learning.fleet_shared import SharedFleetAgent, train_shared_agent
+
+    t0 = time.perf_counter()
+    settings = replace(config.training, seed=TRAIN_SEED0 + 100 * seed)
+    curve_env = rul_env(config, atlas, predictor, fitted)
+    lay, rule = layout(config), rebuild_rule(config, *teacher)
+    s, S = int(rule.params.s), int(rule.params.S)
+
+    def make_env() -> Any:
+        return rul_env(config, atlas, predictor, fitted)
+
+    if kind == "shared":
+        curve = _Curve(config.curve_every, lambda m, mean, var: _mean_cost(
+            curve_env, SharedFleetAgent(m, lay, mean, var, s=s, S=S), config))  # fmt: skip
+        agent: Any = train_shared_agent(
+            make_env, lay, settings, s=s, S=S, callback=curve.callback()
+        )
+    else:
+        reorder = settings.reorder
+        curve = _Curve(config.curve_every, lambda m, mean, var: _mean_cost(
+            curve_env, FleetAgent(m, lay, mean, var, reorder=reorder), config))  # fmt: skip
+        clone = rule if settings.imitation_episodes > 0 else None
+        agent = train_fleet_agent(make_env, lay, settings, callback=curve.callback(), teacher=clone)
+    train_s = time.perf_counter() - t0
+    eps = run_episodes(rul_env(config, atlas, predictor, fitted), agent, config.eval_seeds(),
+                       check_masks=True)  # fmt: skip
+    return {
+        "predictor": predictor, "policy": "MaskablePPO", "kind": kind, "seed": seed,
+        "teacher": teacher[0] if kind == "central" and settings.imitation_episodes else None,
+        "spares": [s, S],
+        "imitation": _imitation(agent),
+        "curve": {"timesteps": np.array([p[0] for p in curve.points], dtype=float),
+                  "cost": np.array([p[1] for p in curve.points], dtype=float)},
+        "episodes": episodes_dict(eps),
+        "seconds": {"train": train_s, "evaluate": time.perf_counter() - t0 - train_s},
+    }  # fmt: skip
+
+
+def _imitation(agent: Any) -> dict[str, Any]:
+    """How the cloning went (agreement with the teacher, seconds), if there was one."""
+    done = getattr(agent, "imitation", None)
+    return asdict(done) if done is not None else {}
+
+
+def _mean_cost(env: Any, agent: Any, config: FleetStudyConfig) -> float:
+    eps = run_episodes(env, agent, config.curve_seeds())
+    return float(np.mean([e.per_vehicle_shift for e in eps]))
+
+
+class _Curve:
+    """The learning curve: the agent's mean cost on the curve episodes at the start of PPO
+    (after any cloning) and every ``every`` shifts (an SB3 callback; ``cost(model,
+    obs_mean, obs_var)`` prices the agent the model is at that moment, with the env's
+    normalisation statistics of that moment)."""
+
+    def __init__(self, every: int, cost: Any) -> None:
+        self.every, self.cost = every, cost
+        self.points: list[tuple[int, float]] = []
+
+    def callback(self) -> Any:
+        from stable_baselines3.common.callbacks import BaseCallback
+
+        outer = self
+
+        class Curve(BaseCallback):
+            def __init__(self) -> None:
+                super().__init__()
+                self.next = outer.every
+
+            def _on_training_start(self) -> None:  # the cloned policy, before PPO
+                self._point()
+
+            def _on_step(self) -> bool:
+                if self.num_timesteps >= self.next:
+                    self._point()
+                    self.next += outer.every
+                return True
+
+            def _point(self) -> None:
+                rms: Any = self.model.get_env().obs_rms  # type: ignore[union-attr]
+                mean, var = rms.mean.astype(np.float32), rms.var.astype(np.float32)
+                outer.points.append((self.num_timesteps, outer.cost(self.model, mean, var)))
+
+        return Curve()

@@ -1,0 +1,148 @@
+"""The fleet study end to end on tiny budgets (``brakewear fleet-study``, its units, its
+summary and its figures), and the agents' aggregate over training seeds."""
+
+from __future__ import annotations
+
+import argparse
+import json
+
+import numpy as np
+import pytest
+from scipy.stats import trim_mean
+
+from agents.commands.fleet_config import FleetStudyConfig, rebuild_rule, rul_env
+from agents.commands.fleet_plots import SHOP, trace_episode
+from agents.commands.fleet_study import run_fleet_study
+from agents.commands.fleet_summary import REFERENCE
+from agents.learning.fleet_agent import FleetTraining
+from agents.study.fleet_costs import iqm, run_episode, seeds_interval
+from brake_env.runner import Runner
+from tests.agents.budgets import ARGS
+
+TINY_TRAINING = FleetTraining(timesteps=64, n_envs=1, n_steps=64, batch_size=32, n_epochs=1,
+                              net_arch=(16,), imitation_episodes=1, imitation_epochs=2)  # fmt: skip
+TINY = FleetStudyConfig(
+    shifts=30, predictors=("none", "oracle"), heuristics=("threshold", "(n, N)"), trials=2,
+    trials_best=2, tune_episodes=1, eval_episodes=3, n_train_runs=2,
+    agent_predictors=("oracle",), agent_seeds=2, shared_seeds=1, training=TINY_TRAINING,
+    curve_episodes=1, curve_every=64, tail=20,
+)  # fmt: skip
+
+
+def test_iqm_is_the_mean_of_the_middle_half():
+    x = np.array([1.0, 2, 3, 4, 5, 6, 7, 100])
+    assert iqm(x) == pytest.approx(4.5) == pytest.approx(trim_mean(x, 0.25))
+
+
+def test_seeds_interval_pairs_episodes_and_resamples_seeds():
+    rng = np.random.default_rng(0)
+    base = rng.uniform(10, 20, 40)
+    # Every seed 2 above the baseline on every episode: the difference is exactly 2.
+    same = seeds_interval(np.stack([base + 2] * 5), base, n_resamples=500)
+    d = same["difference"]
+    assert d.point == pytest.approx(2) and d.low == pytest.approx(2) and d.high == pytest.approx(2)
+    assert same["ratio"].point == pytest.approx((base.mean() + 2) / base.mean())
+    # Seeds that differ: the IQM drops the outlying seed, the interval has width.
+    per_seed = np.stack([base * f for f in (0.8, 0.85, 0.9, 0.95, 3.0)])
+    out = seeds_interval(per_seed, base, n_resamples=2000)
+    assert out["iqm"].point == pytest.approx(iqm(per_seed.mean(axis=1)))
+    assert out["iqm"].low < out["iqm"].point < out["iqm"].high
+    assert out["ratio"].point < 1 < per_seed[-1].mean() / base.mean()
+    with pytest.raises(ValueError, match="seeds, episodes"):
+        seeds_interval(per_seed, base[:-1])
+
+
+def test_the_config_names_what_is_wrong():
+    with pytest.raises(ValueError, match="unknown heuristic"):
+        FleetStudyConfig(heuristics=("threshold", "magic"))
+    with pytest.raises(ValueError, match="not among the predictors"):
+        FleetStudyConfig(predictors=("oracle",), agent_predictors=("twin",))
+    with pytest.raises(ValueError, match="eval_episodes"):
+        FleetStudyConfig(eval_episodes=1)
+    with pytest.raises(ValueError, match="size"):
+        FleetStudyConfig(size="huge")  # type: ignore[arg-type]
+
+
+@pytest.fixture(scope="module")
+def study(atlas, tmp_path_factory):
+    out = tmp_path_factory.mktemp("fleet")
+    return out, run_fleet_study(TINY, atlas, out, Runner(0), n_resamples=200)
+
+
+def test_the_study_runs_every_policy_on_the_same_episodes(study):
+    out, s = study
+    policies = {(r["predictor"], r["policy"]) for r in s["rows"]}
+    assert policies == {("oracle", REFERENCE), ("none", "threshold"), ("none", "(n, N)"),
+                        ("oracle", "threshold"), ("oracle", "(n, N)")}  # fmt: skip
+    for r in s["rows"]:
+        assert r["cost"] > 0
+        if r["policy"] != REFERENCE:
+            ratio = r["ratio_to_reference"]
+            assert ratio["low"] <= ratio["point"] <= ratio["high"]
+    # The best heuristic is the one of least tuning cost, never chosen on evaluation.
+    for p, h in s["best_heuristic"].items():
+        tuned = {r["policy"]: r["tuning_cost"] for r in s["rows"] if r["predictor"] == p
+                 and r["policy"] != REFERENCE}  # fmt: skip
+        assert tuned[h] == min(tuned.values())
+    a = s["agents"]["oracle"]
+    assert (
+        a["seeds"] == 2
+        and len(a["seed_costs"]) == 2
+        and a["teacher"] == s["best_heuristic"]["oracle"]
+    )
+    assert a["iqm"]["point"] == pytest.approx(np.mean(a["seed_costs"]))  # IQM of two: the mean
+    assert all(c["timesteps"] for c in a["curves"])
+    shared = s["agents"]["oracle, shared"]
+    assert shared["kind"] == "shared" and shared["seeds"] == 1 and shared["teacher"] is None
+    assert s["ranking"]["head"] == s["ranking"]["order"][0]  # no twin here: the cheapest
+    assert set(s["ranking"]["head_minus"]) == {"none", "oracle"} - {s["ranking"]["head"]}
+    saved = json.loads((out / "costs.json").read_text())
+    assert saved["rows"] == json.loads(json.dumps(s["rows"]))
+    for f in s["figures"]:
+        assert (out / f).stat().st_size > 0
+
+
+def test_a_rerun_resumes_from_the_units_with_the_same_figures(study, atlas, capsys):
+    out, s = study
+    again = run_fleet_study(TINY, atlas, out, Runner(0), n_resamples=200)
+    assert "resuming: 8 of 8 units" in capsys.readouterr().err
+    assert again["rows"] == s["rows"] and again["agents"]["oracle"]["seed_costs"] == s["agents"][
+        "oracle"]["seed_costs"]  # fmt: skip
+
+
+def test_the_episode_trace_matches_the_env_counts(study, atlas):
+    _, s = study
+    h = s["best_heuristic"]["oracle"]
+    params = next(r["params"] for r in s["rows"] if r["predictor"] == "oracle" and r["policy"] == h)
+    rule = rebuild_rule(TINY, h, params)
+    env = rul_env(TINY, atlas, "oracle", None)
+    trace = trace_episode(env, rule, 0)
+    ep = run_episode(env, rule, 0)
+    assert trace["duty"].shape == (TINY.shifts, 2)
+    assert trace["replaced"].sum() == ep.fits
+    assert trace["failed"].sum() == ep.counts["failures"]
+    assert (trace["duty"][trace["replaced"]] == SHOP).all()
+    assert trace["window"].sum() == TINY.shifts // TINY.fleet.window_period
+
+
+def test_the_cli_names_a_bad_heuristic(capsys):
+    from brake_env.cli.main import main
+
+    with pytest.raises(SystemExit):
+        main(["fleet-study", "--heuristics", "magic"])
+    assert "--heuristics" in capsys.readouterr().err
+
+
+def test_the_demo_stage_runs_on_a_tiny_budget(atlas, tmp_path, monkeypatch):
+    import agents.commands.cli
+    from brake_env.cli.demo import DemoContext
+
+    tiny = {"heuristics": ("threshold",), "shifts": 20, "trials": 1, "episodes": 2}
+    monkeypatch.setattr(agents.commands.cli, "DEMO_FLEET", tiny)
+    monkeypatch.setattr(agents.commands.cli, "DEMO_PREDICTORS", ("none", "oracle"))
+    monkeypatch.setattr(agents.commands.cli, "DEMO_WORKERS", 0)
+    args = argparse.Namespace(**vars(ARGS), n_train=2, k_mean=1e-5, k_std=None, ood_shift_sigma=6.0)
+    ctx = DemoContext(args, tmp_path / "demo", tmp_path / "atlas.npz", tmp_path / "data")
+    summary, section = agents.commands.cli.demo_fleet(ctx)
+    assert "no agent" in section and "| predictor |" in section
+    assert summary["ranking"]["order"] and (tmp_path / "demo" / "fleet" / "costs.json").exists()

@@ -1,0 +1,132 @@
+"""Parameter-shared MaskablePPO on BrakeWearFleet-v0 (agents.learning.fleet_shared): the
+per-vehicle adapter against the full env and the PettingZoo view, and a tiny training's
+plumbing (masks, determinism), not learning."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from agents.learning.fleet_agent import FleetTraining, oracle_fleet_env
+from agents.learning.fleet_shared import (
+    SharedFleetVecEnv,
+    train_shared_agent,
+    vehicle_observations,
+)
+from agents.policies.fleet import reorder
+from agents.policies.fleet_view import FleetLayout
+from agents.study.fleet_costs import run_episodes
+from brake_env.env.fleet.config import SMALL_FLEET, FleetConfig
+from brake_env.env.fleet.shop import SERVICE
+from brake_env.env.fleet.spaces import FLEET_FEATURES, N_VF
+
+pytest.importorskip("sb3_contrib")
+
+CFG = FleetConfig(**SMALL_FLEET, episode_shifts=20, events_per_shift=100)
+N = CFG.n_vehicles
+TINY = FleetTraining(timesteps=160, n_envs=2, n_steps=16, batch_size=32, n_epochs=1, seed=3)
+S_S = (1, 2)
+
+
+@pytest.fixture(scope="module")
+def agent(atlas):
+    return train_shared_agent(lambda: oracle_fleet_env(CFG, atlas), FleetLayout.of(CFG), TINY,
+                              s=S_S[0], S=S_S[1])  # fmt: skip
+
+
+def _duties(rng: np.random.Generator, masks: np.ndarray) -> np.ndarray:
+    return np.array([rng.choice(np.flatnonzero(m)) for m in masks])
+
+
+def test_vehicle_view_is_the_slices_of_the_fleet_observation(atlas) -> None:
+    venv = SharedFleetVecEnv(lambda: oracle_fleet_env(CFG, atlas), 2, *S_S)
+    ref = oracle_fleet_env(CFG, atlas)  # copy 1, stepped alongside
+    venv.seed(7)
+    obs = venv.reset()
+    full, _ = ref.reset(seed=8)
+    assert venv.num_envs == 2 * N and obs.shape == (2 * N, N_VF + 1 + len(FLEET_FEATURES))
+    rng = np.random.default_rng(0)
+    for _ in range(CFG.episode_shifts + 3):  # across an episode end
+        veh, fleet, rul = full[: N * N_VF].reshape(N, N_VF), full[N * N_VF : -N], full[-N:]
+        for v in range(N):
+            np.testing.assert_array_equal(obs[N + v], np.concatenate([veh[v], [rul[v]], fleet]))
+            assert venv.observation_space.contains(obs[N + v])
+        masks = venv.action_masks()
+        np.testing.assert_array_equal(masks[N:].ravel(), ref.unwrapped.action_masks()[: 4 * N])
+        np.testing.assert_array_equal(np.stack(venv.env_method("action_masks")), masks)
+        duties = _duties(rng, masks)
+        obs, _, dones, infos = venv.step(duties)
+        base = ref.unwrapped
+        q = reorder(base.shop.stock, base.shop.in_transit, int((duties[N:] == SERVICE).sum()),
+                    *S_S, CFG.max_order)  # fmt: skip
+        full, _, term, trunc, _ = ref.step(np.append(duties[N:], q))
+        if term or trunc:
+            assert dones.all()
+            last = vehicle_observations(full, N)
+            for v in range(N):
+                np.testing.assert_array_equal(infos[N + v]["terminal_observation"], last[v])
+            full, _ = ref.reset()
+        else:
+            assert not dones.any()
+
+
+def test_the_pettingzoo_view_plus_the_rul(atlas) -> None:
+    pytest.importorskip("pettingzoo")
+    from brake_env.env.fleet.parallel import BrakeWearFleetParallelEnv
+
+    pz = BrakeWearFleetParallelEnv(CFG, atlas=atlas)
+    venv = SharedFleetVecEnv(lambda: oracle_fleet_env(CFG, atlas), 1, *S_S)
+    venv.seed(4)
+    obs = venv.reset()
+    pz_obs, _ = pz.reset(seed=4)
+    for v in range(N):
+        own = pz_obs[f"vehicle_{v}"]["observation"]
+        np.testing.assert_array_equal(np.delete(obs[v], N_VF), own)
+        np.testing.assert_array_equal(venv.action_masks()[v], pz_obs[f"vehicle_{v}"]["action_mask"])
+
+
+def test_every_vehicle_gets_the_fleets_reward_scaled(atlas) -> None:
+    scale = 1e-3
+    venv = SharedFleetVecEnv(lambda: oracle_fleet_env(CFG, atlas), 1, *S_S, reward_scale=scale)
+    ref = oracle_fleet_env(CFG, atlas)
+    venv.seed(2)
+    venv.reset()
+    ref.reset(seed=2)
+    rng = np.random.default_rng(1)
+    for _ in range(10):
+        duties = _duties(rng, venv.action_masks())
+        base = ref.unwrapped
+        q = reorder(base.shop.stock, base.shop.in_transit, int((duties == SERVICE).sum()),
+                    *S_S, CFG.max_order)  # fmt: skip
+        _, rewards, _, _ = venv.step(duties)
+        _, r, *_ = ref.step(np.append(duties, q))
+        np.testing.assert_allclose(rewards, np.full(N, float(r) * scale, dtype=np.float32))
+
+
+def test_agent_respects_the_mask_along_an_episode(agent, atlas) -> None:
+    env = oracle_fleet_env(CFG, atlas)
+    (ep,) = run_episodes(env, agent, [5], check_masks=True)  # raises on a masked action
+    assert ep.shifts == CFG.episode_shifts and np.isfinite(ep.per_vehicle_shift)
+    assert agent.mean.shape == (N_VF + 1 + len(FLEET_FEATURES),)
+
+
+def test_same_seed_same_actions(agent, atlas) -> None:
+    again = train_shared_agent(lambda: oracle_fleet_env(CFG, atlas), FleetLayout.of(CFG), TINY,
+                               s=S_S[0], S=S_S[1])  # fmt: skip
+    env = oracle_fleet_env(CFG, atlas)
+    obs, _ = env.reset(seed=1)
+    for _ in range(10):
+        a1, _ = agent.predict(obs)
+        a2, _ = again.predict(obs)
+        np.testing.assert_array_equal(a1, a2)
+        assert a1.shape == (N + 1,)
+        obs, *_ = env.step(a1)
+    np.testing.assert_array_equal(agent.mean, again.mean)
+
+
+def test_agent_indicator_appends_the_vehicle_index(atlas) -> None:
+    venv = SharedFleetVecEnv(lambda: oracle_fleet_env(CFG, atlas), 1, *S_S, agent_indicator=True)
+    venv.seed(0)
+    obs = venv.reset()
+    np.testing.assert_array_equal(obs[:, -N:], np.eye(N))
+    assert all(venv.observation_space.contains(o) for o in obs)

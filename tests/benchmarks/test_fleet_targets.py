@@ -1,0 +1,59 @@
+"""benchmarks/fleet_targets.py: each target rule on made-up fleet ``costs.json`` contents
+where it passes and where it fails."""
+
+from __future__ import annotations
+
+import importlib.util
+import sys
+from pathlib import Path
+from types import ModuleType
+from typing import Any
+
+SCRIPT = Path(__file__).resolve().parents[2] / "benchmarks" / "fleet_targets.py"
+
+
+def _load() -> ModuleType:
+    spec = importlib.util.spec_from_file_location("fleet_targets", SCRIPT)
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module
+    spec.loader.exec_module(module)
+    return module
+
+
+ft = _load()
+
+
+def iv(point: float, low: float, high: float) -> dict[str, float]:
+    return {"point": point, "low": low, "high": high}
+
+
+def summary(ratio: dict[str, float], diff: dict[str, float], seeds: int = 10,
+            train_s: float = 600.0, twin_minus: float = -1.0) -> dict[str, Any]:  # fmt: skip
+    return {
+        "agents": {"twin": {"ratio_to_heuristic": ratio, "minus_heuristic": diff,
+                            "seeds": seeds, "train_seconds": [train_s] * seeds,
+                            "heuristic": "(n, N)"}},
+        "rows": [{"predictor": "twin", "policy": "(n, N)",
+                  "ratio_to_reference": iv(1.1, 1.05, 1.15), "gap_to_reference": iv(2, 1, 3)}],
+        "ranking": {"head": "twin", "head_minus": {
+            "window": {"difference": iv(twin_minus, twin_minus - 1, twin_minus + 0.5),
+                       "ratio": iv(0.95, 0.9, 1.0)}}},
+    }  # fmt: skip
+
+
+def verdicts(s: dict[str, Any]) -> list[str]:
+    return [r[-1] for r in ft.rows(s)[1:]]
+
+
+def test_the_rl_target_needs_ten_percent_an_interval_below_zero_ten_seeds_and_time():
+    good = summary(iv(0.85, 0.8, 0.9), iv(-3, -4, -2))
+    assert verdicts(good) == ["met", "reported", "met"]
+    assert verdicts(summary(iv(0.95, 0.9, 1.0), iv(-1, -2, -0.5)))[0] == "MISSED"  # 5% only
+    assert verdicts(summary(iv(0.85, 0.7, 1.1), iv(-3, -6, 0.5)))[0] == "MISSED"  # spans 0
+    assert verdicts(summary(iv(0.85, 0.8, 0.9), iv(-3, -4, -2), seeds=5))[0] == "MISSED"
+    assert verdicts(summary(iv(0.85, 0.8, 0.9), iv(-3, -4, -2), train_s=901))[0] == "MISSED"
+
+
+def test_the_twin_must_beat_each_predictor_with_an_interval_below_zero():
+    assert verdicts(summary(iv(0.85, 0.8, 0.9), iv(-3, -4, -2), twin_minus=0.2))[-1] == "MISSED"
