@@ -298,10 +298,15 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
     _register_fleet_study(sub, fmt)
 
 
-def _register_fleet_study(sub: argparse._SubParsersAction[Any], fmt: Any) -> None:
-    from agents.commands.fleet_config import FLEET_HEURISTICS, FLEET_PREDICTORS, SIZES
-    from agents.study.fleet_tuning import SPACES
+# The fleet study's choices as the parser shows them (agents.commands.fleet_config holds the
+# same, tested equal; importing it here would load scipy and Optuna for ``--help``). A
+# heuristic name is checked by FleetStudyConfig, which names the valid ones.
+FLEET_SIZES = ("small", "default")
+FLEET_PREDICTORS = ("none", "physics", "data", "twin", "window", "oracle")
+FLEET_HEURISTICS = ("threshold", "(n, N)", "best combination")
 
+
+def _register_fleet_study(sub: argparse._SubParsersAction[Any], fmt: Any) -> None:
     f = sub.add_parser(
         "fleet-study",
         formatter_class=fmt,
@@ -309,12 +314,16 @@ def _register_fleet_study(sub: argparse._SubParsersAction[Any], fmt: Any) -> Non
         " MaskablePPO over training seeds, on the same evaluation episodes",
     )
     add_common_args(f, "out/fleet-study")
-    f.add_argument("--size", choices=SIZES, default="small", help="small: 2 vehicles (reference)")
+    f.add_argument(
+        "--size", choices=FLEET_SIZES, default="small", help="small: 2 vehicles (reference)"
+    )
     f.add_argument("--shifts", type=int_at_least(2), default=365, help="an episode")
     f.add_argument("--predictors", type=_names, default=FLEET_PREDICTORS, help="comma-separated")
     f.add_argument(
-        "--heuristics", nargs="+", choices=list(SPACES), default=FLEET_HEURISTICS,
-        metavar="NAME", help=f"heuristics to tune, each quoted: {list(SPACES)}",
+        "--heuristics", nargs="+", default=FLEET_HEURISTICS, metavar="NAME",
+        help="heuristics to tune, each quoted (agents.study.fleet_tuning.SPACES: threshold,"
+        " time-to-window, '(n, N)', capacity greedy, duty rule, '(s, S)', standby, best"
+        " combination)",
     )  # fmt: skip
     f.add_argument("--trials", type=int_at_least(1), default=15, help="Optuna, per heuristic")
     f.add_argument("--trials-best", type=int_at_least(1), default=45, help="the combination's")

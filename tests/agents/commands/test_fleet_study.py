@@ -125,12 +125,18 @@ def test_the_episode_trace_matches_the_env_counts(study, atlas):
     assert trace["window"].sum() == TINY.shifts // TINY.fleet.window_period
 
 
-def test_the_cli_names_a_bad_heuristic(capsys):
+def test_the_cli_names_a_bad_heuristic_and_shows_the_study_s_choices(capsys, tmp_path):
+    import agents.commands.cli as cli
+    from agents.commands import fleet_config
     from brake_env.cli.main import main
 
-    with pytest.raises(SystemExit):
-        main(["fleet-study", "--heuristics", "magic"])
-    assert "--heuristics" in capsys.readouterr().err
+    assert main(["fleet-study", "--out", str(tmp_path), "--heuristics", "magic"]) == 2
+    assert "unknown heuristic(s) ['magic']" in capsys.readouterr().err
+    assert not (tmp_path / "costs.json").exists()
+    # The parser's copies of the names (kept light for --help) are the study's.
+    assert cli.FLEET_SIZES == fleet_config.SIZES
+    assert cli.FLEET_PREDICTORS == fleet_config.FLEET_PREDICTORS
+    assert cli.FLEET_HEURISTICS == fleet_config.FLEET_HEURISTICS
 
 
 def test_the_demo_stage_runs_on_a_tiny_budget(atlas, tmp_path, monkeypatch):
