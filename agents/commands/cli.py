@@ -336,8 +336,8 @@ def _register_fleet_study(sub: argparse._SubParsersAction[Any], fmt: Any) -> Non
         "--shared-seeds", type=int_at_least(0), default=0,
         help="training seeds of the parameter-shared PPO (one policy per vehicle) per agent",
     )  # fmt: skip
-    f.add_argument("--timesteps", type=int_at_least(1), default=40_000, help="PPO, per agent")
-    f.add_argument("--dagger", type=int_at_least(0), default=0, help="DAgger rounds of cloning")
+    f.add_argument("--timesteps", type=int_at_least(1), default=20_000, help="PPO, per agent")
+    f.add_argument("--dagger", type=int_at_least(0), default=1, help="DAgger rounds of cloning")
     f.add_argument("--learning-rate", type=float, default=1e-4, help="PPO's, after cloning")
     f.add_argument("--ent-coef", type=float, default=0.0, help="PPO's entropy coefficient")
     f.add_argument(
