@@ -109,7 +109,7 @@ def report(summary: dict[str, Any], markdown: bool = False) -> str:
             f" seeds below it; training {min(a['train_seconds']):.0f}-"
             f"{max(a['train_seconds']):.0f} s a seed"
         )
-    return "\n".join(lines)
+    return ("\n\n" if markdown else "\n").join(lines)  # Markdown: a table needs a blank line
 
 
 def _agent_name(a: dict[str, Any]) -> str:
