@@ -40,8 +40,12 @@ def _verdict(ok: bool) -> str:
 def rows(s: dict[str, Any]) -> list[list[str]]:
     out = [["target", "measured", ""]]
     for p, a in s["agents"].items():
-        if a.get("kind", "central") != "central":
-            continue  # the target is the centralised agent's; the shared one is reported
+        if a.get("kind", "central") != "central":  # the target is the centralised agent's
+            out.append([f"shared PPO ({p}'s RUL) against the tuned {a['heuristic']}",
+                        f"IQM ratio {_iv(a['ratio_to_heuristic'])}, difference"
+                        f" {_iv(a['minus_heuristic'], 2)}; {a['seeds']} seeds",
+                        "reported"])  # fmt: skip
+            continue
         r, d = a["ratio_to_heuristic"], a["minus_heuristic"]
         ok = (r["point"] <= 1 - SAVING and d["high"] < 0 and a["seeds"] >= MIN_SEEDS
               and max(a["train_seconds"]) < MAX_TRAIN_S)  # fmt: skip

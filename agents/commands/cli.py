@@ -331,7 +331,10 @@ def _register_fleet_study(sub: argparse._SubParsersAction[Any], fmt: Any) -> Non
     f.add_argument("--eval-episodes", type=int_at_least(2), default=40)
     f.add_argument("--n-train-runs", type=int_at_least(1), default=10, help="pads to fit on")
     f.add_argument("--agents", type=_names, default=(), help="predictors given MaskablePPO")
-    f.add_argument("--agent-seeds", type=int_at_least(1), default=10, help="training seeds")
+    f.add_argument(
+        "--agent-seeds", type=int_at_least(0), default=10,
+        help="training seeds of MaskablePPO (one policy for the fleet) per agent",
+    )  # fmt: skip
     f.add_argument(
         "--shared-seeds", type=int_at_least(0), default=0,
         help="training seeds of the parameter-shared PPO (one policy per vehicle) per agent",

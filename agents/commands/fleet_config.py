@@ -95,12 +95,14 @@ class FleetStudyConfig:
                 f" {self.predictors} (an agent is compared with its predictor's heuristics)"
             )
         for name in ("shifts", "trials", "trials_best", "tune_episodes", "n_train_runs",
-                     "agent_seeds", "curve_episodes", "curve_every"):  # fmt: skip
-            # (shared_seeds may be 0)
+                     "curve_episodes", "curve_every"):  # fmt: skip
             if int(getattr(self, name)) < 1:
                 raise ValueError(
                     f"FleetStudyConfig: {name} must be >= 1, got {getattr(self, name)}"
                 )
+        if min(self.agent_seeds, self.shared_seeds) < 0:
+            raise ValueError(f"FleetStudyConfig: agent_seeds and shared_seeds must be >= 0, got"
+                             f" {self.agent_seeds} and {self.shared_seeds}")  # fmt: skip
         if self.eval_episodes < 2:
             raise ValueError(
                 f"FleetStudyConfig: eval_episodes must be >= 2 (paired intervals),"

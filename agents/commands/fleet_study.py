@@ -107,9 +107,17 @@ def report(summary: dict[str, Any], markdown: bool = False) -> str:
             f" ({a['heuristic_cost']:.2f}): {_ivs(a['minus_heuristic'])}, ratio"
             f" {_ivs(a['ratio_to_heuristic'])}; {a['seeds_beating_heuristic']} of {a['seeds']}"
             f" seeds below it; training {min(a['train_seconds']):.0f}-"
-            f"{max(a['train_seconds']):.0f} s a seed"
+            f"{max(a['train_seconds']):.0f} s a seed{_agreement(a)}"
         )
     return ("\n\n" if markdown else "\n").join(lines)  # Markdown: a table needs a blank line
+
+
+def _agreement(a: dict[str, Any]) -> str:
+    """The clones' agreement with the teacher on its own data, if they were cloned."""
+    got = [x for x in a.get("clone_agreement", []) if x is not None]
+    if not got:
+        return ""
+    return f"; clones agree with the teacher on {min(got):.1%}-{max(got):.1%} of its decisions"
 
 
 def _agent_name(a: dict[str, Any]) -> str:

@@ -146,6 +146,8 @@ def _agents(
         "curves": [{"timesteps": np.asarray(r["curve"]["timesteps"]).tolist(),
                     "cost": np.asarray(r["curve"]["cost"]).tolist()} for r in runs],
         "teacher": runs[0]["teacher"],
+        # the clone's agreement with its teacher on the teacher's data, per seed
+        "clone_agreement": [r["imitation"].get("agreement") for r in runs],
     }  # fmt: skip
     if ref is not None:
         out["ratio_to_reference"] = _iv(

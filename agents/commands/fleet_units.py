@@ -192,8 +192,8 @@ class AgentRun:
         seed: Training seed (its episodes from 30,000 + 100 seed).
         kind: ``central``: one policy decides the fleet, warm-started by cloning the
             teacher when ``training.imitation_episodes`` > 0; ``shared``: one policy shared
-            by the vehicles (:mod:`agents.learning.fleet_shared`), spares by the teacher's
-            (s, S).
+            by the vehicles (:mod:`agents.learning.fleet_shared`), cloned from the teacher's
+            duties likewise, spares by the teacher's (s, S).
         teacher: The predictor's best tuned heuristic: (name, parameters).
     """
 
@@ -234,24 +234,25 @@ def _agent(
     def make_env() -> Any:
         return rul_env(config, atlas, predictor, fitted)
 
-    if kind == "shared":
+    clone = rule if settings.imitation_episodes > 0 else None
+    if kind == "shared":  # SB3 counts a sample per vehicle; the curve counts shifts
         curve = _Curve(config.curve_every, lambda m, mean, var: _mean_cost(
-            curve_env, SharedFleetAgent(m, lay, mean, var, s=s, S=S), config))  # fmt: skip
+            curve_env, SharedFleetAgent(m, lay, mean, var, s=s, S=S), config),
+            lay.n_vehicles)  # fmt: skip
         agent: Any = train_shared_agent(
-            make_env, lay, settings, s=s, S=S, callback=curve.callback()
+            make_env, lay, settings, s=s, S=S, callback=curve.callback(), teacher=clone
         )
     else:
         reorder = settings.reorder
         curve = _Curve(config.curve_every, lambda m, mean, var: _mean_cost(
             curve_env, FleetAgent(m, lay, mean, var, reorder=reorder), config))  # fmt: skip
-        clone = rule if settings.imitation_episodes > 0 else None
         agent = train_fleet_agent(make_env, lay, settings, callback=curve.callback(), teacher=clone)
     train_s = time.perf_counter() - t0
     eps = run_episodes(rul_env(config, atlas, predictor, fitted), agent, config.eval_seeds(),
                        check_masks=True)  # fmt: skip
     return {
         "predictor": predictor, "policy": "MaskablePPO", "kind": kind, "seed": seed,
-        "teacher": teacher[0] if kind == "central" and settings.imitation_episodes else None,
+        "teacher": teacher[0] if settings.imitation_episodes else None,
         "spares": [s, S],
         "imitation": _imitation(agent),
         "curve": {"timesteps": np.array([p[0] for p in curve.points], dtype=float),
@@ -276,10 +277,10 @@ class _Curve:
     """The learning curve: the agent's mean cost on the curve episodes at the start of PPO
     (after any cloning) and every ``every`` shifts (an SB3 callback; ``cost(model,
     obs_mean, obs_var)`` prices the agent the model is at that moment, with the env's
-    normalisation statistics of that moment)."""
+    normalisation statistics of that moment). SB3 counts ``per_shift`` samples a shift."""
 
-    def __init__(self, every: int, cost: Any) -> None:
-        self.every, self.cost = every, cost
+    def __init__(self, every: int, cost: Any, per_shift: int = 1) -> None:
+        self.every, self.cost, self.per_shift = every * per_shift, cost, per_shift
         self.points: list[tuple[int, float]] = []
 
     def callback(self) -> Any:
@@ -304,6 +305,7 @@ class _Curve:
             def _point(self) -> None:
                 rms: Any = self.model.get_env().obs_rms  # type: ignore[union-attr]
                 mean, var = rms.mean.astype(np.float32), rms.var.astype(np.float32)
-                outer.points.append((self.num_timesteps, outer.cost(self.model, mean, var)))
+                shifts = self.num_timesteps // outer.per_shift
+                outer.points.append((shifts, outer.cost(self.model, mean, var)))
 
         return Curve()

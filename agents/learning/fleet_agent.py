@@ -153,14 +153,33 @@ class ReorderBy(gym.ActionWrapper[Any, NDArray[np.int64], NDArray[np.int64]]):
         return self.env.unwrapped.action_masks()[: 4 * self.n]  # type: ignore[attr-defined]
 
 
-class FleetAgent:
-    """A trained MaskablePPO with frozen observation statistics; SB3's ``predict``.
+class FrozenAgent:
+    """A trained MaskablePPO and its observation statistics, frozen at the end of training
+    (SB3's ``VecNormalize``: ``(obs - mean) / sqrt(var + 1e-8)``, clipped).
 
     Args:
         model: The MaskablePPO.
-        layout: Where the mask's inputs are in the (unnormalised) observation.
-        obs_mean, obs_var: Frozen running statistics of the observation.
+        layout: Where the mask's inputs are in the (unnormalised) fleet observation.
+        obs_mean, obs_var: Frozen running statistics of the policy's observation.
         clip: VecNormalize's clip of normalised observations.
+    """
+
+    def __init__(
+        self, model: Any, layout: FleetLayout, obs_mean: F32, obs_var: F32, clip: float = 10.0
+    ) -> None:
+        self.model, self.layout, self.clip = model, layout, clip
+        self.mean, self.std = obs_mean, np.sqrt(obs_var + 1e-8)
+        self.imitation: Imitation | None = None  # set by the trainer with a teacher
+
+    def normalize(self, obs: NDArray[Any]) -> F32:
+        return np.clip((obs - self.mean) / self.std, -self.clip, self.clip).astype(np.float32)
+
+
+class FleetAgent(FrozenAgent):
+    """A trained MaskablePPO with frozen observation statistics; SB3's ``predict``.
+
+    Args:
+        model, layout, obs_mean, obs_var, clip: As :class:`FrozenAgent`'s.
         reorder: The (s, S) it was trained with (:class:`ReorderBy`), if any.
     """
 
@@ -168,13 +187,9 @@ class FleetAgent:
         self, model: Any, layout: FleetLayout, obs_mean: F32, obs_var: F32, clip: float = 10.0,
         reorder: tuple[int, int] | None = None,
     ) -> None:  # fmt: skip
-        self.model, self.layout, self.clip, self.reorder = model, layout, clip, reorder
-        self.mean, self.std = obs_mean, np.sqrt(obs_var + 1e-8)
+        super().__init__(model, layout, obs_mean, obs_var, clip)
+        self.reorder = reorder
         self.name = "MaskablePPO"
-        self.imitation: Imitation | None = None  # set by train_fleet_agent with a teacher
-
-    def normalize(self, obs: NDArray[Any]) -> F32:
-        return np.clip((obs - self.mean) / self.std, -self.clip, self.clip).astype(np.float32)
 
     def predict(
         self,

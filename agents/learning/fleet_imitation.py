@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any
 
 import gymnasium as gym
@@ -162,6 +162,11 @@ def imitate(
     masks = th.as_tensor(demo.masks)
     target = th.as_tensor(returns, dtype=th.float32)
     policy = model.policy
+    discrete = isinstance(model.action_space, gym.spaces.Discrete)
+
+    def flat(a: Any) -> Any:  # a Discrete policy takes (batch,) actions, not (batch, 1)
+        return a[:, 0] if discrete else a
+
     policy.set_training_mode(True)
     params = [
         p for name, p in policy.named_parameters() if s.imitation_value or "value" not in name
@@ -172,7 +177,9 @@ def imitate(
     for _ in range(s.imitation_epochs):
         for idx in np.array_split(rng.permutation(n), max(1, n // s.batch_size)):
             i = th.as_tensor(idx)
-            values, log_prob, _ = policy.evaluate_actions(obs[i], acts[i], action_masks=masks[i])
+            values, log_prob, _ = policy.evaluate_actions(
+                obs[i], flat(acts[i]), action_masks=masks[i]
+            )
             loss = -log_prob.mean()
             if s.imitation_value:
                 loss = loss + 0.5 * th.nn.functional.mse_loss(values.flatten(), target[i])
@@ -181,34 +188,57 @@ def imitate(
             opt.step()
     policy.set_training_mode(False)
     with th.no_grad():
-        _, log_prob, _ = policy.evaluate_actions(obs, acts, action_masks=masks)
+        _, log_prob, _ = policy.evaluate_actions(obs, flat(acts), action_masks=masks)
         dist = policy.get_distribution(obs, action_masks=demo.masks)
         mode = dist.get_actions(deterministic=True).reshape(acts.shape)
     return float((mode == acts).all(dim=1).float().mean()), float(-log_prob.mean())
 
 
-def clone(model: Any, venv: Any, teacher: Any, s: FleetTraining, t0: float) -> Imitation:
-    """Clone ``teacher`` into ``model``'s policy: its episodes on the training envs, then
-    ``imitation_rounds`` DAgger rounds (see :func:`train_fleet_agent`)."""
+Actor = Callable[[NDArray[Any], NDArray[np.bool_]], NDArray[np.int64]]
+
+
+def clone(
+    model: Any, venv: Any, teacher: Any, s: FleetTraining, t0: float, *,
+    actor_for: Callable[[Any], Actor] | None = None,
+    samples: Callable[[Demonstrations], Demonstrations] | None = None,
+    reward_scale: float = 1.0,
+) -> Imitation:  # fmt: skip
+    """Clone ``teacher`` into ``model``'s policy: its episodes on the training envs
+    (``venv.venv.envs``), then ``imitation_rounds`` DAgger rounds (see
+    :func:`~agents.learning.fleet_agent.train_fleet_agent`).
+
+    The parameter-shared agent (:mod:`.fleet_shared`) records on fleet envs but learns
+    from vehicles: ``samples`` turns fleet shifts into the policy's samples, ``actor_for(env)``
+    is the DAgger actor on a copy (the clone's duties and the store's rule), and
+    ``reward_scale`` scales the recorded rewards (its copies' rewards are unscaled; the
+    central agent's copies scale them)."""
     k = s.imitation_episodes
 
-    def actor(obs: NDArray[Any], mask: NDArray[np.bool_]) -> NDArray[np.int64]:
-        z = np.asarray(venv.normalize_obs(obs), dtype=np.float32)
-        return np.asarray(model.predict(z, action_masks=mask, deterministic=True)[0])
+    def central(env: Any) -> Actor:
+        def actor(obs: NDArray[Any], mask: NDArray[np.bool_]) -> NDArray[np.int64]:
+            z = np.asarray(venv.normalize_obs(obs), dtype=np.float32)
+            return np.asarray(model.predict(z, action_masks=mask, deterministic=True)[0])
 
-    envs = venv.venv.envs  # the DummyVecEnv's copies
+        return actor
+
+    actor_for = actor_for or central
+    envs = venv.venv.envs  # the training copies
     demo, returns, on_policy = None, np.zeros(0), float("nan")
     for r in range(s.imitation_rounds + 1):  # round 0: the teacher acts; then DAgger
         seed0 = IMITATION_SEED0 * (s.seed + 1) + r * k
-        new = _concat([
+        fleet = _concat([
             record(envs[i], teacher, list(range(seed0 + i, seed0 + k, s.n_envs)),
-                   s.reorder is not None, None if r == 0 else actor)
+                   s.reorder is not None, None if r == 0 else actor_for(envs[i]))
             for i in range(min(s.n_envs, k))
         ])  # fmt: skip
+        fleet = replace(fleet, rewards=fleet.rewards * reward_scale)
+        new = fleet if samples is None else samples(fleet)
         if r > 0:  # the learner's agreement on its own states, before refitting
             on_policy = float((new.taken == new.actions).all(axis=1).mean())
         venv.obs_rms.update(new.obs)  # statistics first: the policy sees them
-        returns = np.concatenate([returns, _returns(new, s.gamma, venv, s.normalize_reward)])
+        per_shift = len(new.rewards) // len(fleet.rewards)  # samples per fleet shift
+        ret = _returns(fleet, s.gamma, venv, s.normalize_reward)
+        returns = np.concatenate([returns, np.repeat(ret, per_shift)])
         demo = new if demo is None else _concat([demo, new])
         agreement, nll = imitate(model, venv, demo, returns, s, s.seed + r)
     assert demo is not None

@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Sequence
+from dataclasses import replace
 from typing import Any
 
 import gymnasium as gym
@@ -43,7 +44,8 @@ from stable_baselines3.common.env_util import is_wrapped
 from stable_baselines3.common.vec_env import VecEnv
 from stable_baselines3.common.vec_env.base_vec_env import VecEnvIndices, VecEnvStepReturn
 
-from agents.learning.fleet_agent import FleetTraining
+from agents.learning.fleet_agent import FleetTraining, FrozenAgent
+from agents.learning.fleet_imitation import Demonstrations, Imitation, clone
 from agents.policies.fleet import reorder
 from agents.policies.fleet_view import FleetLayout, FleetView
 from brake_env.env.fleet.shop import SERVICE
@@ -230,16 +232,14 @@ class SharedFleetVecEnv(VecEnv):
             env.close()
 
 
-class SharedFleetAgent:
-    """A trained shared MaskablePPO with frozen observation statistics; SB3's ``predict`` on
-    the fleet observation (module docstring).
+class SharedFleetAgent(FrozenAgent):
+    """A trained shared MaskablePPO with frozen observation statistics (a vehicle's); SB3's
+    ``predict`` on the fleet observation (module docstring).
 
     Args:
         model: The MaskablePPO (one vehicle's observation in, its duty out).
-        layout: Where the mask's inputs are in the (unnormalised) fleet observation.
-        obs_mean, obs_var: Frozen running statistics of a vehicle's observation.
+        layout, obs_mean, obs_var, clip: As :class:`~.fleet_agent.FrozenAgent`'s.
         s, S: The store's (s, S) rule it was trained with.
-        clip: VecNormalize's clip of normalised observations.
         agent_indicator: Whether it sees its one-hot vehicle index.
     """
 
@@ -247,14 +247,9 @@ class SharedFleetAgent:
         self, model: Any, layout: FleetLayout, obs_mean: F32, obs_var: F32, *, s: int, S: int,
         clip: float = 10.0, agent_indicator: bool = False,
     ) -> None:  # fmt: skip
-        self.model, self.layout, self.clip = model, layout, clip
+        super().__init__(model, layout, obs_mean, obs_var, clip)
         self.s, self.S, self.agent_indicator = s, S, agent_indicator
-        self.mean, self.std = obs_mean, np.sqrt(obs_var + 1e-8)
         self.name = "shared MaskablePPO"
-
-    def normalize(self, obs: NDArray[Any]) -> F32:
-        """Vehicle observations (n_vehicles, d), normalised by the frozen statistics."""
-        return np.clip((obs - self.mean) / self.std, -self.clip, self.clip).astype(np.float32)
 
     def predict(
         self,
@@ -282,6 +277,39 @@ class SharedFleetAgent:
         return f"SharedFleetAgent({self.name}, s={self.s}, S={self.S})"
 
 
+def vehicle_samples(demo: Demonstrations, n: int, agent_indicator: bool) -> Demonstrations:
+    """A fleet's recorded shifts as the shared policy's samples: each shift becomes its
+    ``n`` vehicles' rows (observation, duty, mask slice, the fleet's reward), in order."""
+    obs = np.concatenate([vehicle_observations(o, n, agent_indicator) for o in demo.obs])
+    return Demonstrations(
+        obs.astype(np.float64), demo.actions[:, :n].reshape(-1, 1),
+        demo.masks[:, : 4 * n].reshape(-1, 4), np.repeat(demo.rewards, n), demo.starts * n,
+        demo.taken[:, :n].reshape(-1, 1),
+    )  # fmt: skip
+
+
+def _clone(model: Any, venv: Any, teacher: Any, st: FleetTraining, t0: float) -> Imitation:
+    """Behaviour cloning of ``teacher`` (its duties, vehicle by vehicle) and DAgger rounds
+    in which the shared clone drives, the store ordering by (s, S)."""
+    envs: SharedFleetVecEnv = venv.venv
+
+    def actor_for(env: Any) -> Callable[[NDArray[Any], NDArray[np.bool_]], NDArray[np.int64]]:
+        def actor(obs: NDArray[Any], mask: NDArray[np.bool_]) -> NDArray[np.int64]:
+            own = venv.normalize_obs(envs._split(obs)).astype(np.float32)
+            m = mask[: 4 * envs.n].reshape(envs.n, 4)
+            duties = np.asarray(model.predict(own, action_masks=m, deterministic=True)[0])
+            duties = duties.astype(np.int64).reshape(envs.n)
+            return np.append(duties, _order(env.unwrapped, duties, envs.s, envs.S))
+
+        return actor
+
+    return clone(
+        model, venv, teacher, replace(st, reorder=None), t0, actor_for=actor_for,
+        samples=lambda d: vehicle_samples(d, envs.n, envs.agent_indicator),
+        reward_scale=st.reward_scale,
+    )  # fmt: skip
+
+
 def train_shared_agent(
     make_env: Callable[[], gym.Env[Any, Any]],
     layout: FleetLayout,
@@ -291,6 +319,7 @@ def train_shared_agent(
     S: int,
     callback: Any = None,
     agent_indicator: bool = False,
+    teacher: Any = None,
 ) -> SharedFleetAgent:
     """Train one MaskablePPO shared by every vehicle on ``settings.n_envs`` copies of
     ``make_env()`` (:class:`SharedFleetVecEnv`, spares by (s, S)).
@@ -300,13 +329,22 @@ def train_shared_agent(
     rollout (``n_steps * n_envs * n_vehicles`` samples, minibatches of ``batch_size``
     samples). Observations are normalised (VecNormalize, statistics frozen into the agent),
     rewards scaled by ``reward_scale`` and, with ``normalize_reward``, by the return's
-    running spread. ``settings.reorder`` and the imitation settings are not used (the
-    order is (s, S); no warm start). Copy i's episodes start from seed ``settings.seed + i``.
+    running spread. ``settings.reorder`` is not used (the order is (s, S)). With
+    ``settings.imitation_episodes`` > 0 the policy is first cloned from ``teacher``'s
+    duties, vehicle by vehicle, with DAgger rounds (as the central agent's warm start,
+    :func:`~agents.learning.fleet_imitation.clone`); a vehicle sees only itself, so a
+    teacher that ranks the vehicles can be cloned only as far as a vehicle's own state
+    tells its rank. Copy i's episodes start from seed ``settings.seed + i``.
     """
     from sb3_contrib import MaskablePPO  # heavy optional dependencies (the fleet extra)
     from stable_baselines3.common.vec_env import VecNormalize
 
     st = settings
+    if (teacher is None) != (st.imitation_episodes == 0):
+        raise ValueError("train_shared_agent: a teacher needs settings.imitation_episodes > 0"
+                         f" and the reverse (got {st.imitation_episodes} episodes, teacher"
+                         f" {teacher!r})")  # fmt: skip
+    t0 = time.perf_counter()
     envs = SharedFleetVecEnv(make_env, st.n_envs, s, S, st.reward_scale, agent_indicator)
     if envs.n != layout.n_vehicles:
         raise ValueError(f"train_shared_agent: layout has {layout.n_vehicles} vehicles, the env"
@@ -318,7 +356,11 @@ def train_shared_agent(
         clip_range=st.clip_range, policy_kwargs={"net_arch": list(st.net_arch)}, seed=st.seed,
         verbose=0, device="cpu",
     )  # fmt: skip
-    model.learn(total_timesteps=st.timesteps * envs.n, callback=callback)
+    imitation = None if teacher is None else _clone(model, venv, teacher, st, t0)
+    if st.timesteps > 0:
+        model.learn(total_timesteps=st.timesteps * envs.n, callback=callback)
     rms: Any = venv.obs_rms
     mean, var = rms.mean.astype(np.float32), rms.var.astype(np.float32)
-    return SharedFleetAgent(model, layout, mean, var, s=s, S=S, agent_indicator=agent_indicator)
+    agent = SharedFleetAgent(model, layout, mean, var, s=s, S=S, agent_indicator=agent_indicator)
+    agent.imitation = imitation
+    return agent

@@ -61,6 +61,10 @@ def test_the_config_names_what_is_wrong():
         FleetStudyConfig(eval_episodes=1)
     with pytest.raises(ValueError, match="size"):
         FleetStudyConfig(size="huge")  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match="agent_seeds and shared_seeds"):
+        FleetStudyConfig(agent_seeds=-1)
+    only_shared = FleetStudyConfig(agent_predictors=("twin",), agent_seeds=0, shared_seeds=2)
+    assert only_shared.agent_runs() == [("shared", "twin", 0), ("shared", "twin", 1)]
 
 
 @pytest.fixture(scope="module")
@@ -93,7 +97,9 @@ def test_the_study_runs_every_policy_on_the_same_episodes(study):
     assert a["iqm"]["point"] == pytest.approx(np.mean(a["seed_costs"]))  # IQM of two: the mean
     assert all(c["timesteps"] for c in a["curves"])
     shared = s["agents"]["oracle, shared"]
-    assert shared["kind"] == "shared" and shared["seeds"] == 1 and shared["teacher"] is None
+    assert shared["kind"] == "shared" and shared["seeds"] == 1
+    assert shared["teacher"] == s["best_heuristic"]["oracle"]  # cloned too
+    assert all(c["timesteps"][0] == 0 for c in shared["curves"])  # the clone, before PPO
     assert s["ranking"]["head"] == s["ranking"]["order"][0]  # no twin here: the cheapest
     assert set(s["ranking"]["head_minus"]) == {"none", "oracle"} - {s["ranking"]["head"]}
     saved = json.loads((out / "costs.json").read_text())

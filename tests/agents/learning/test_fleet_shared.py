@@ -1,19 +1,23 @@
 """Parameter-shared MaskablePPO on BrakeWearFleet-v0 (agents.learning.fleet_shared): the
 per-vehicle adapter against the full env and the PettingZoo view, and a tiny training's
-plumbing (masks, determinism), not learning."""
+plumbing (masks, determinism, the cloning warm start), not learning."""
 
 from __future__ import annotations
+
+import dataclasses
 
 import numpy as np
 import pytest
 
 from agents.learning.fleet_agent import FleetTraining, oracle_fleet_env
+from agents.learning.fleet_imitation import IMITATION_SEED0, record
 from agents.learning.fleet_shared import (
     SharedFleetVecEnv,
     train_shared_agent,
     vehicle_observations,
+    vehicle_samples,
 )
-from agents.policies.fleet import reorder
+from agents.policies.fleet import FleetRule, FleetRuleParams, reorder
 from agents.policies.fleet_view import FleetLayout
 from agents.study.fleet_costs import run_episodes
 from brake_env.env.fleet.config import SMALL_FLEET, FleetConfig
@@ -130,3 +134,73 @@ def test_agent_indicator_appends_the_vehicle_index(atlas) -> None:
     obs = venv.reset()
     np.testing.assert_array_equal(obs[:, -N:], np.eye(N))
     assert all(venv.observation_space.contains(o) for o in obs)
+
+
+# ------------------------------------------------------- the warm start (behaviour cloning)
+# A teacher a vehicle can follow from its own view: its RUL says when to go for service
+TEACHER = FleetRule(
+    FleetLayout.of(CFG),
+    FleetRuleParams(must=3.0, window_limit=12.0, shop_limit=8.0, greedy=True, s=1, S=2),
+    "teacher",
+)
+CLONE = dataclasses.replace(
+    TINY, timesteps=0, imitation_episodes=8, imitation_epochs=30, batch_size=16
+)
+
+
+def test_vehicle_samples_are_each_vehicles_rows(atlas) -> None:
+    env = oracle_fleet_env(CFG, atlas)
+    demo = record(env, TEACHER, [3, 4], drop_order=False)
+    got = vehicle_samples(demo, N, agent_indicator=True)
+    steps = len(demo.rewards)
+    assert got.obs.shape[0] == got.actions.shape[0] == got.masks.shape[0] == steps * N
+    for t in (0, steps // 2, steps - 1):
+        rows = slice(t * N, (t + 1) * N)
+        np.testing.assert_array_equal(got.obs[rows], vehicle_observations(demo.obs[t], N, True))
+        np.testing.assert_array_equal(got.actions[rows, 0], demo.actions[t, :N])
+        np.testing.assert_array_equal(got.masks[rows].ravel(), demo.masks[t, : 4 * N])
+        assert (got.rewards[rows] == demo.rewards[t]).all()
+    np.testing.assert_array_equal(got.starts, demo.starts * N)
+
+
+@pytest.fixture(scope="module")
+def clone(atlas):
+    return train_shared_agent(lambda: oracle_fleet_env(CFG, atlas), FleetLayout.of(CFG), CLONE,
+                              s=1, S=2, teacher=TEACHER)  # fmt: skip
+
+
+def test_shared_clone_acts_like_its_teacher_on_held_out_episodes(clone, atlas) -> None:
+    assert clone.imitation is not None
+    assert clone.imitation.samples == 8 * 20 * N and clone.imitation.agreement >= 0.9
+    env = oracle_fleet_env(CFG, atlas)
+    same = []
+    for seed in (7, 8):  # the teacher drives; the clone is asked at every shift
+        obs, _ = env.reset(seed=seed)
+        done = False
+        while not done:
+            want, _ = TEACHER.predict(obs)
+            got, _ = clone.predict(obs)
+            same.append(bool(np.array_equal(want, got)))
+            obs, _, terminated, truncated, _ = env.step(want)
+            done = terminated or truncated
+    assert np.mean(same) >= 0.9
+
+
+def test_shared_clone_statistics_are_the_teachers_vehicle_views(clone, atlas) -> None:
+    seeds = [IMITATION_SEED0 * (CLONE.seed + 1) + k for k in range(8)]
+    demo = record(oracle_fleet_env(CFG, atlas), TEACHER, seeds, drop_order=False)
+    own = vehicle_samples(demo, N, agent_indicator=False).obs
+    np.testing.assert_allclose(clone.mean, own.mean(axis=0), rtol=1e-4, atol=1e-4)
+
+
+def test_shared_clone_then_ppo_with_dagger(atlas) -> None:
+    settings = dataclasses.replace(CLONE, timesteps=32, imitation_rounds=1, imitation_episodes=2)
+    agent = train_shared_agent(lambda: oracle_fleet_env(CFG, atlas), FleetLayout.of(CFG),
+                               settings, s=1, S=2, teacher=TEACHER)  # fmt: skip
+    assert agent.imitation is not None and agent.imitation.samples == 2 * 2 * 20 * N
+    assert 0.0 <= agent.imitation.on_policy <= 1.0
+    (ep,) = run_episodes(oracle_fleet_env(CFG, atlas), agent, [5], check_masks=True)
+    assert ep.shifts == CFG.episode_shifts
+    with pytest.raises(ValueError, match="teacher"):
+        train_shared_agent(lambda: oracle_fleet_env(CFG, atlas), FleetLayout.of(CFG), CLONE,
+                           s=1, S=2)  # fmt: skip
