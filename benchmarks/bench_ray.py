@@ -10,6 +10,11 @@ in-process ones (timing fields aside) before any speed-up is printed.
 - 2 workers against this process [>= 1.7x faster];
 - 1 worker against this process [no more than 10% slower, i.e. >= 0.91x].
 
+Where the time goes, for commands that keep their units with their times: the units' own
+work summed (``units' work``; more on Ray than in this process means slower units in Ray
+workers) and the share of the workers' time it fills (``busy``; the rest is start-up, what
+is not a unit, e.g. fitting the predictors, and workers idle while others finish).
+
 Run: ``.venv/bin/python benchmarks/bench_ray.py [--json out.json]
 [--only validate|compare|fleet]`` (about 12 minutes on 2 cores for the first two; the fleet
 study about 8 more).
@@ -79,16 +84,32 @@ def run(argv: list[str], out: Path, workers: int, cache: str) -> float:
     return seconds
 
 
+def unit_seconds(out: Path) -> float | None:
+    """The stored units' own wall time summed (each unit's ``seconds``: a number, or a dict
+    of its parts), or None if the command keeps no units with their times."""
+    total, found = 0.0, False
+    for f in sorted((out / "units").glob("*.json")):
+        spent = json.loads(f.read_text()).get("result", {})
+        spent = spent.get("seconds") if isinstance(spent, dict) else None
+        if isinstance(spent, dict):
+            spent = sum(v for v in spent.values() if isinstance(v, (int, float)))
+        if isinstance(spent, (int, float)):
+            total, found = total + float(spent), True
+    return total if found else None
+
+
 def study(
     name: str, argv: list[str], result: str, root: Path, cache: str
 ) -> tuple[list[list[str]], dict[str, Any]]:
     """Rows of the table and the JSON record of one command at every worker count."""
     seconds: dict[int, float] = {}
     outputs: dict[int, Any] = {}
+    work: dict[int, float | None] = {}
     for w in WORKERS:
         out = root / f"{name}-{w}"
         seconds[w] = run(argv, out, w, cache)
         outputs[w] = _strip(json.loads((out / result).read_text()))
+        work[w] = unit_seconds(out)
         print(f"{name}, workers {w}: {seconds[w]:.1f} s", file=sys.stderr)
     same = all(outputs[w] == outputs[0] for w in WORKERS)
     if not same:
@@ -97,14 +118,19 @@ def study(
         1: (">= 0.91x (<= 10% slower)", lambda s: s >= 1 / 1.1),
         2: (">= 1.7x", lambda s: s >= 1.7),
     }
-    rows, record = [], {"seconds": seconds, "same_results": same, "speedup": {}}
+    rows = []
+    record = {"seconds": seconds, "same_results": same, "speedup": {}, "unit_seconds": work}
     for w in WORKERS:
         speedup = seconds[0] / seconds[w]
         record["speedup"][w] = speedup
         label = "in this process" if w == 0 else f"local Ray, {w} worker{'s' * (w > 1)}"
         want, ok = targets.get(w, ("baseline", lambda _: True))
         verdict = "" if w == 0 else ("met" if ok(speedup) else "MISSED")
-        rows.append([name, label, f"{seconds[w]:.1f} s", f"{speedup:.2f}x", want, verdict])
+        # where the time goes: the units' own work, and the share of the workers' time it fills
+        units = "" if work[w] is None else f"{work[w]:.1f} s"
+        busy = "" if work[w] is None else f"{work[w] / (max(w, 1) * seconds[w]):.0%}"
+        rows.append([name, label, f"{seconds[w]:.1f} s", f"{speedup:.2f}x", want, verdict,
+                     units, busy])  # fmt: skip
     return rows, record
 
 
@@ -121,7 +147,8 @@ def main() -> None:
         capture_output=True,
     )  # fmt: skip  (built once, not timed)
     root = Path(tempfile.mkdtemp(prefix="bench-ray-"))
-    header = [["study", "where", "wall", "x in-process", "target", ""]]
+    header = [["study", "where", "wall", "x in-process", "target", "", "units' work",
+                "busy"]]  # fmt: skip
     rows, record = [], {"cpus": os.cpu_count()}
     for name, argv, result in (("validate-gap", VALIDATE, "validation.json"),
                                ("compare", COMPARE, "costs.json"),

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import os
 from collections.abc import Callable, Iterable, Mapping, Sequence
-from concurrent.futures import Future, as_completed
+from concurrent.futures import FIRST_COMPLETED, Future, as_completed, wait
 from dataclasses import dataclass
 from functools import partial
 from pathlib import Path
@@ -27,7 +27,9 @@ from typing import Any
 
 from brake_env.units import UnitStore
 
-__all__ = ["AUTO", "RETRIES", "Runner", "Unit", "UnitStore", "UnitsFailed", "ray_available"]
+__all__ = [
+    "AUTO", "RETRIES", "Later", "Runner", "Unit", "UnitStore", "UnitsFailed", "ray_available",
+]  # fmt: skip
 
 AUTO = "auto"
 RETRIES = 2  # Ray reruns a task this many times when its worker process dies
@@ -41,11 +43,24 @@ class Unit:
         key: Unique name in its run: progress, errors and the saved result use it.
         fn: A module-level function (Ray workers import it by name).
         args: Its arguments; values from :meth:`Runner.share` are resolved in the task.
+        weight: Its expected cost relative to the others' (:meth:`Runner.run_graph` starts
+            the heaviest ready unit first, so that no long unit is left running alone).
     """
 
     key: str
     fn: Callable[..., Any]
     args: tuple[Any, ...] = ()
+    weight: float = 1.0
+
+
+@dataclass(frozen=True)
+class Later:
+    """A unit that needs others' results: ``make(results)`` returns it (key ``key``) once
+    every unit in ``needs`` has finished, ``results`` holding theirs by key."""
+
+    key: str
+    needs: tuple[str, ...]
+    make: Callable[[Mapping[str, Any]], Unit]
 
 
 class UnitsFailed(RuntimeError):
@@ -174,6 +189,122 @@ class Runner:
         futures = {self.submit(u.fn, *u.args): u.key for u in todo}
         on_ray = ((futures[f], f.result) for f in as_completed(futures))  # as they finish
         return lambda progress: _collect(units, on_ray, results, store, progress)
+
+    def run_graph(
+        self,
+        nodes: Sequence[Unit | Later],
+        store: UnitStore | None = None,
+        progress: Callable[[str, Any], object] | None = None,
+        kept: Callable[[str], bool] = lambda key: True,
+    ) -> dict[str, Any]:
+        """Units that need others' results, each started as soon as what it needs is in
+        (no stage waits for its slowest unit). Each node comes after the units it needs.
+
+        A unit whose key is ``kept`` is saved in ``store`` as it finishes and read from it
+        when there; the others (e.g. fitted models) are not saved and run only when a unit
+        that has to run needs them. In this process the units run in the order given; on
+        Ray, as many at a time as the cluster has CPUs, the heaviest ready one first.
+        ``progress(key, result)`` as each is read or finishes.
+
+        Returns:
+            The results of the units that ran or were read, by key, in the nodes' order.
+
+        Raises:
+            ValueError: Duplicate keys, or a node before a unit it needs.
+            UnitsFailed: After every other unit has finished, naming those that raised and
+                those not run because a unit they need failed.
+        """
+        keys = _checked_order(nodes)
+        results = {k: store.load(k) for k in keys if store is not None and kept(k) and k in store}
+        for k in list(results):
+            if progress:
+                progress(k, results[k])
+        errors: dict[str, BaseException] = {}
+
+        def unit_of(n: Unit | Later) -> Unit | None:
+            failed = [k for k in _needs(n) if k in errors]
+            if failed:
+                errors[n.key] = RuntimeError(f"not run: it needs {', '.join(failed)}, which failed")
+                return None
+            u = n if isinstance(n, Unit) else n.make(results)
+            if u.key != n.key:
+                raise ValueError(f"run_graph: {n.key}'s make gave a unit named {u.key}")
+            return u
+
+        def finish(key: str, get: Callable[[], Any]) -> None:
+            try:
+                results[key] = _finish(key, get(), store if kept(key) else None, progress)
+            except Exception as e:
+                errors[key] = _cause(e)
+
+        todo = _wanted(nodes, results, kept)
+        if not self.on_ray:
+            for n in todo:
+                u = unit_of(n)
+                if u is not None:
+                    finish(u.key, partial(u.fn, *u.args))
+        else:
+            self._run_graph_on_ray(todo, unit_of, finish, results, errors)
+        if errors:
+            raise UnitsFailed({k: errors[k] for k in keys if k in errors})
+        return {k: results[k] for k in keys if k in results}
+
+    def _run_graph_on_ray(
+        self, todo: list[Unit | Later], unit_of: Callable[[Unit | Later], Unit | None],
+        finish: Callable[[str, Callable[[], Any]], None], results: Mapping[str, Any],
+        errors: Mapping[str, BaseException],
+    ) -> None:  # fmt: skip
+        """:meth:`run_graph`'s schedule on Ray: as many tasks in flight as the cluster has
+        CPUs; when one ends, the heaviest unit whose needs are in starts."""
+        cpus = max(1, int(self._ray.cluster_resources().get("CPU", 1)))
+        waiting, ready = list(todo), list[Unit]()
+        running: dict[Future[Any], str] = {}
+        while waiting or ready or running:
+            for n in [n for n in waiting if all(k in results or k in errors for k in _needs(n))]:
+                waiting.remove(n)
+                u = unit_of(n)
+                if u is not None:
+                    ready.append(u)
+            ready.sort(key=lambda u: -u.weight)  # stable: equal weights keep the nodes' order
+            while ready and len(running) < cpus:
+                u = ready.pop(0)
+                running[self.submit(u.fn, *u.args)] = u.key
+            if running:
+                done, _ = wait(running, return_when=FIRST_COMPLETED)
+                for f in done:
+                    finish(running.pop(f), f.result)
+
+
+def _checked_order(nodes: Sequence[Unit | Later]) -> list[str]:
+    """The nodes' keys, once it is checked that they are unique and each node comes after
+    the units it needs."""
+    keys = [n.key for n in nodes]
+    if len(set(keys)) != len(keys):
+        raise ValueError(f"unit keys must be unique, got {sorted(keys)}")
+    before: set[str] = set()
+    for n in nodes:
+        late = [k for k in _needs(n) if k not in before]
+        if late:
+            raise ValueError(f"run_graph: {n.key} needs {late}, which must come before it")
+        before.add(n.key)
+    return keys
+
+
+def _needs(n: Unit | Later) -> tuple[str, ...]:
+    return n.needs if isinstance(n, Later) else ()
+
+
+def _wanted(
+    nodes: Sequence[Unit | Later], results: Mapping[str, Any], kept: Callable[[str], bool]
+) -> list[Unit | Later]:
+    """The nodes to run: the kept ones not read already, and what they need (transitively)
+    that is not read either."""
+    need: set[str] = set()
+    for n in reversed(nodes):
+        if n.key not in results and (kept(n.key) or n.key in need):
+            need.add(n.key)
+            need.update(_needs(n))
+    return [n for n in nodes if n.key in need and n.key not in results]
 
 
 def _collect(

@@ -13,17 +13,19 @@ Units, each a module-level function of its arguments alone:
 - :func:`agent_unit`: MaskablePPO trained with one predictor's RUL from one training seed
   (learning curve on separate episodes), then run on the evaluation episodes.
 
-Three rounds: the predictors with work left are fitted; every predictor x heuristic is
-tuned and evaluated; then the reference (its spares by the oracle's best heuristic's
-(s, S)) and the agents (each warm-started from its predictor's best heuristic when
-``training.imitation_episodes`` > 0).
+A graph, not rounds (:func:`study_graph`): each unit starts as soon as what it needs is in
+(a predictor's heuristics its fit; the reference, whose spares are the oracle's best
+heuristic's (s, S), the oracle's heuristics; an agent, warm-started from its predictor's
+best heuristic when ``training.imitation_episodes`` > 0, that predictor's fit and
+heuristics), so no stage waits for its slowest unit.
 """
 
 from __future__ import annotations
 
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import asdict, dataclass, replace
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -43,7 +45,7 @@ from agents.study.fleet_tuning import tune
 from brake_env.model.atlas import Atlas
 from brake_env.model.regime import WearRegime
 from brake_env.prognostics.protocol import Predictor
-from brake_env.runner import Runner, Unit
+from brake_env.runner import Later, Runner, Unit
 from brake_env.units import open_store
 
 UNITS = "units"
@@ -77,7 +79,9 @@ def run_units(
     progress: Progress | None = None,
     resume: bool = True,
 ) -> dict[str, Any]:
-    """Every unit's result by key (:func:`study_keys`).
+    """Every stored unit's result by key (:func:`study_keys`), run as a graph
+    (:meth:`~brake_env.runner.Runner.run_graph`): a unit starts as soon as the units it
+    needs are in, the heaviest first (:func:`weights`).
 
     Raises:
         ValueError: ``out/units`` holds units of other settings, or is in use.
@@ -85,48 +89,84 @@ def run_units(
     keys = study_keys(config)
     settings = {**config.settings(), "atlas": atlas.content_hash}
     store = open_store(out / UNITS, settings, keys, "fleet-study") if resume else None
-    done = {k for k in keys if store is not None and k in store}
+    kept = set(keys)
+    bar = progress("fleet study units", len(keys)) if progress else None
+    try:
+        return runner.run_graph(
+            study_graph(config, runner, runner.share(atlas)), store,
+            (lambda k, r: bar.update(1) if k in kept else None) if bar else None,
+            kept=kept.__contains__,
+        )  # fmt: skip
+    finally:
+        if bar is not None:
+            bar.close()
 
-    def run(units: list[Unit], label: str, kept: Any) -> dict[str, Any]:
-        bar = progress(label, len(units)) if progress and units else None
-        try:
-            return runner.run(units, kept, (lambda k, r: bar.update(1)) if bar else None)
-        finally:
-            if bar is not None:
-                bar.close()
 
-    needs = {
-        p for p in config.predictors if p != ORACLE and (
-            any(config.heuristic_key(p, h) not in done for h in config.heuristics)
-            or any(config.agent_key(q, s, kind) not in done
-                   for kind, q, s in config.agent_runs() if q == p)
-        )
+def weights(config: FleetStudyConfig) -> dict[str, float]:
+    """Each unit's expected cost in episode-shifts simulated (a unit of PPO training about
+    3 of them), for the schedule only: no result depends on it."""
+    n_eval = config.eval_episodes * config.shifts
+    w: dict[str, float] = {
+        config.heuristic_key(p, h): config.trials_of(h) * config.tune_episodes * config.shifts
+        + n_eval for p in config.predictors for h in config.heuristics
     }  # fmt: skip
-    a = runner.share(atlas)
-    fits = [Unit(f"fit-{p}", fit_unit, (p, a, config.seed, config.n_train_runs))
-            for p in config.predictors if p in needs]  # fmt: skip
-    fitted_by_key = run(fits, "fit predictors", None)
-    fitted = {k.removeprefix("fit-"): runner.share(v) for k, v in fitted_by_key.items()}
-    h_units = [
-        Unit(config.heuristic_key(p, h), heuristic_unit, (config, a, p, fitted.get(p), h))
-        for p in config.predictors for h in config.heuristics
-    ]  # fmt: skip
-    results = run(h_units, "tune and evaluate heuristics", store)
-    second = []
-    if config.has_reference:
-        best = best_heuristic(config, results, ORACLE) if ORACLE in config.predictors else None
-        s, S = _spares(config, results, best)
-        second.append(Unit(config.reference_key(), reference_unit, (config, a, s, S)))
+    w[config.reference_key()] = 3.0 * n_eval
+    st = config.training
+    cloned = st.imitation_episodes * (st.imitation_rounds + 1) * config.shifts
     for kind, p, s in config.agent_runs():
-        h = best_heuristic(config, results, p)
-        teacher = (h, results[config.heuristic_key(p, h)]["params"])
-        job = AgentRun(p, s, kind, teacher)
-        second.append(
-            Unit(config.agent_key(p, s, kind), agent_unit, (config, a, fitted.get(p), job))
-        )
-    label = "reference and agents" if config.agent_predictors else "reference"
-    results.update(run(second, label, store))
-    return results
+        w[config.agent_key(p, s, kind)] = 3.0 * (st.timesteps + cloned) + n_eval
+    return w
+
+
+def study_graph(config: FleetStudyConfig, runner: Runner, atlas: Any) -> list[Unit | Later]:
+    """The study's units, each after what it needs: the predictors' fits (not stored); every
+    predictor x heuristic (its fit); the reference (the oracle's heuristics: its spares are
+    the oracle's best heuristic's (s, S)); the agents (their predictor's fit and heuristics:
+    each is warm-started from the best one when ``training.imitation_episodes`` > 0)."""
+    w = weights(config)
+    shared: dict[str, Any] = {}  # each fitted predictor put in Ray's object store once
+
+    def fitted(p: str, r: Mapping[str, Any]) -> Any:
+        if p == ORACLE:
+            return None
+        if p not in shared:
+            shared[p] = runner.share(r[f"fit-{p}"])
+        return shared[p]
+
+    def fit_of(p: str) -> tuple[str, ...]:
+        return () if p == ORACLE else (f"fit-{p}",)
+
+    def h_keys(p: str) -> tuple[str, ...]:
+        return tuple(config.heuristic_key(p, h) for h in config.heuristics)
+
+    def heuristic(r: Mapping[str, Any], p: str, h: str) -> Unit:
+        k = config.heuristic_key(p, h)
+        return Unit(k, heuristic_unit, (config, atlas, p, fitted(p, r), h), w[k])
+
+    def reference(r: Mapping[str, Any]) -> Unit:
+        best = best_heuristic(config, dict(r), ORACLE) if ORACLE in config.predictors else None
+        k = config.reference_key()
+        return Unit(k, reference_unit, (config, atlas, *_spares(config, dict(r), best)), w[k])
+
+    def agent(r: Mapping[str, Any], kind: str, p: str, s: int) -> Unit:
+        h = best_heuristic(config, dict(r), p)
+        job = AgentRun(p, s, kind, (h, r[config.heuristic_key(p, h)]["params"]))
+        k = config.agent_key(p, s, kind)
+        return Unit(k, agent_unit, (config, atlas, fitted(p, r), job), w[k])
+
+    nodes: list[Unit | Later] = [
+        Unit(f"fit-{p}", fit_unit, (p, atlas, config.seed, config.n_train_runs))
+        for p in config.predictors if p != ORACLE
+    ]  # fmt: skip
+    nodes += [Later(config.heuristic_key(p, h), fit_of(p), partial(heuristic, p=p, h=h))
+              for p in config.predictors for h in config.heuristics]  # fmt: skip
+    if config.has_reference:
+        oracle = h_keys(ORACLE) if ORACLE in config.predictors else ()
+        nodes.append(Later(config.reference_key(), oracle, reference))
+    nodes += [Later(config.agent_key(p, s, kind), fit_of(p) + h_keys(p),
+                    partial(agent, kind=kind, p=p, s=s))
+              for kind, p, s in config.agent_runs()]  # fmt: skip
+    return nodes
 
 
 def _spares(config: FleetStudyConfig, results: dict[str, Any], best: str | None) -> tuple[int, int]:

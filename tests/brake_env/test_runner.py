@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from brake_env.runner import Runner, Unit, UnitsFailed, UnitStore
+from brake_env.runner import Later, Runner, Unit, UnitsFailed, UnitStore
 
 
 def draw(seed: int, n: int) -> dict:
@@ -113,3 +113,77 @@ def test_a_killed_writes_temporary_file_is_not_a_unit(tmp_path):
     store.save("a", 1)
     (tmp_path / ".b-123.json.99-ab.tmp.json").write_text("{")
     assert store.keys() == ["a"] and "b" not in store
+
+
+# ------------------------------------------------------------ units that need others' results
+def add(a: int, b: int) -> int:
+    return a + b
+
+
+def graph() -> list:
+    """fit -> two users of it -> a summary of both; ``fit`` is not kept."""
+    return [
+        Unit("fit", fail_on, (5, -1)),  # 10
+        Later("a", ("fit",), lambda r: Unit("a", add, (r["fit"], 1), weight=1.0)),
+        Later("b", ("fit",), lambda r: Unit("b", add, (r["fit"], 2), weight=3.0)),
+        Later("sum", ("a", "b"), lambda r: Unit("sum", add, (r["a"], r["b"]))),
+    ]
+
+
+@pytest.mark.parametrize("workers", [0, 2])
+def test_a_graph_runs_each_unit_after_what_it_needs(tmp_path, workers, request):
+    if workers:
+        request.getfixturevalue("local_ray")
+    store = UnitStore(tmp_path, {})
+    seen: list[str] = []
+    with Runner(workers) as r:
+        got = r.run_graph(graph(), store, lambda k, v: seen.append(k), kept=lambda k: k != "fit")
+    assert got == {"fit": 10, "a": 11, "b": 12, "sum": 23}
+    assert store.keys() == ["a", "b", "sum"]  # the fit is not kept
+    assert seen.index("fit") < min(seen.index("a"), seen.index("b")) < seen.index("sum")
+    # resumed: nothing left needs the fit, so it does not run
+    again = Runner(0).run_graph(graph(), store, kept=lambda k: k != "fit")
+    assert again == {"a": 11, "b": 12, "sum": 23}
+
+
+def test_a_graph_reruns_an_unkept_unit_only_for_what_needs_it(tmp_path):
+    store = UnitStore(tmp_path, {})
+    store.save("a", 11)
+    store.save("sum", 23)
+    got = Runner(0).run_graph(graph(), store, kept=lambda k: k != "fit")
+    assert got == {"fit": 10, "a": 11, "b": 12, "sum": 23}  # b needs the fit again
+
+
+@pytest.mark.parametrize("workers", [0, 2])
+def test_a_graph_names_failures_and_what_they_stopped(workers, request):
+    if workers:
+        request.getfixturevalue("local_ray")
+    nodes = graph()
+    nodes[2] = Later("b", ("fit",), lambda r: Unit("b", fail_on, (r["fit"], 10)))
+    with Runner(workers) as r, pytest.raises(UnitsFailed) as e:
+        r.run_graph(nodes)
+    assert set(e.value.errors) == {"b", "sum"}
+    assert "seed 10 is bad" in str(e.value) and "sum: RuntimeError: not run: it needs b" in str(
+        e.value
+    )
+
+
+def test_a_graph_refuses_a_node_before_what_it_needs():
+    with pytest.raises(ValueError, match="sum needs"):
+        Runner(0).run_graph([graph()[3], *graph()[:3]])
+
+
+def started_at(pause: float) -> float:
+    import time
+
+    t = time.monotonic()  # one clock for the machine's processes
+    time.sleep(pause)
+    return t
+
+
+def test_on_ray_the_heaviest_ready_units_start_first(local_ray):
+    light = [Unit(f"light{i}", started_at, (0.0,)) for i in range(2)]
+    heavy = [Unit(f"heavy{i}", started_at, (0.3,), weight=5.0) for i in range(2)]
+    with Runner(workers=2) as r:  # two CPUs: two units at a time
+        t = r.run_graph([*light, *heavy])
+    assert max(t["heavy0"], t["heavy1"]) < min(t["light0"], t["light1"])

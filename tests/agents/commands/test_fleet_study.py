@@ -4,6 +4,7 @@ summary and its figures), and the agents' aggregate over training seeds."""
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 
 import numpy as np
@@ -114,6 +115,15 @@ def test_a_rerun_resumes_from_the_units_with_the_same_figures(study, atlas, caps
     assert "resuming: 8 of 8 units" in capsys.readouterr().err
     assert again["rows"] == s["rows"] and again["agents"]["oracle"]["seed_costs"] == s["agents"][
         "oracle"]["seed_costs"]  # fmt: skip
+
+
+def test_on_ray_the_graph_gives_the_same_figures(study, atlas, local_ray, tmp_path):
+    _, s = study
+    config = dataclasses.replace(TINY, shared_seeds=0, agent_seeds=1)  # the same units, fewer
+    with Runner(workers=2) as r:
+        on_ray = run_fleet_study(config, atlas, tmp_path, r, n_resamples=200)
+    assert on_ray["rows"] == s["rows"]
+    assert on_ray["agents"]["oracle"]["seed_costs"] == s["agents"]["oracle"]["seed_costs"][:1]
 
 
 def test_the_episode_trace_matches_the_env_counts(study, atlas):
