@@ -192,7 +192,8 @@ def cmd_fleet_study(args: argparse.Namespace) -> dict[str, Any]:
 def demo_fleet(ctx: DemoContext) -> tuple[dict[str, Any], str]:
     """The fleet study on the small fleet at a budget the demo can afford: the demo's
     predictors, two heuristics tuned on few trials, the reference, 180-shift episodes; no
-    agent (MaskablePPO needs ~10 min a seed; the report says so)."""
+    agent (a MaskablePPO seed trains in 400-450 s on a quiet 2-core machine; the report
+    says so)."""
     from agents.commands.fleet_config import FleetStudyConfig
     from agents.commands.fleet_study import report, study_and_report
 
@@ -211,7 +212,8 @@ def demo_fleet(ctx: DemoContext) -> tuple[dict[str, Any], str]:
 
 A small budget: {d["shifts"]}-shift episodes, {", ".join(d["heuristics"])} tuned with
 {d["trials"]} Optuna trials on 2 tuning episodes, {d["episodes"]} evaluation episodes, no
-best combination and no agent (MaskablePPO needs ~10 min a training seed). At this budget
+best combination and no agent (a MaskablePPO training seed takes 400-450 s on a quiet
+2-core machine, the study trains 10). At this budget
 the heuristics are under-tuned and the intervals wide: the ranking below is what this
 budget shows, not the study's result (README "The fleet study" has the full run and its
 command).
