@@ -19,12 +19,11 @@ from agents.learning.fleet_imitation import IMITATION_SEED0, record
 from agents.policies.fleet import FleetRule, FleetRuleParams
 from agents.policies.fleet_view import FleetLayout
 from agents.study.fleet_costs import run_episode
-from brake_env.env.fleet.config import SMALL_FLEET, FleetConfig
 from brake_env.env.fleet.shop import HOT, SERVICE
+from tests.agents.learning.small_fleet import CFG, agreement
 
 pytest.importorskip("sb3_contrib")
 
-CFG = FleetConfig(**SMALL_FLEET, episode_shifts=20, events_per_shift=100)
 TINY = FleetTraining(timesteps=64, n_envs=2, n_steps=32, batch_size=32, n_epochs=1, seed=3)
 
 
@@ -101,23 +100,6 @@ def _teacher() -> FleetRule:
     return FleetRule(FleetLayout.of(CFG), TEACHER, "teacher")
 
 
-def _agreement(agent, teacher, atlas, seeds=(7, 8)) -> float:
-    """Fraction of the teacher's shifts (held-out episodes, the teacher driving) on which
-    the agent's deterministic action is the teacher's."""
-    env = oracle_fleet_env(CFG, atlas)
-    same = []
-    for seed in seeds:
-        obs, _ = env.reset(seed=seed)
-        done = False
-        while not done:
-            want, _ = teacher.predict(obs)
-            got, _ = agent.predict(obs)
-            same.append(bool(np.array_equal(want, got)))
-            obs, _, terminated, truncated, _ = env.step(want)
-            done = terminated or truncated
-    return float(np.mean(same))
-
-
 @pytest.fixture(scope="module")
 def clone(atlas):
     return train_fleet_agent(
@@ -129,7 +111,7 @@ def test_clone_acts_like_its_teacher_on_held_out_episodes(clone, atlas) -> None:
     assert clone.imitation is not None
     assert clone.imitation.samples == 8 * 20 and clone.imitation.agreement >= 0.95
     assert np.isnan(clone.imitation.on_policy)  # no DAgger round
-    assert _agreement(clone, _teacher(), atlas) >= 0.95  # measured 1.0
+    assert agreement(clone, _teacher(), atlas) >= 0.95  # measured 1.0
     ep = run_episode(oracle_fleet_env(CFG, atlas), clone, seed=9, check_masks=True)
     assert ep.shifts == 20
 

@@ -20,13 +20,12 @@ from agents.learning.fleet_shared import (
 from agents.policies.fleet import FleetRule, FleetRuleParams, reorder
 from agents.policies.fleet_view import FleetLayout
 from agents.study.fleet_costs import run_episodes
-from brake_env.env.fleet.config import SMALL_FLEET, FleetConfig
 from brake_env.env.fleet.shop import SERVICE
 from brake_env.env.fleet.spaces import FLEET_FEATURES, N_VF
+from tests.agents.learning.small_fleet import CFG, agreement
 
 pytest.importorskip("sb3_contrib")
 
-CFG = FleetConfig(**SMALL_FLEET, episode_shifts=20, events_per_shift=100)
 N = CFG.n_vehicles
 TINY = FleetTraining(timesteps=160, n_envs=2, n_steps=16, batch_size=32, n_epochs=1, seed=3)
 S_S = (1, 2)
@@ -172,18 +171,7 @@ def clone(atlas):
 def test_shared_clone_acts_like_its_teacher_on_held_out_episodes(clone, atlas) -> None:
     assert clone.imitation is not None
     assert clone.imitation.samples == 8 * 20 * N and clone.imitation.agreement >= 0.9
-    env = oracle_fleet_env(CFG, atlas)
-    same = []
-    for seed in (7, 8):  # the teacher drives; the clone is asked at every shift
-        obs, _ = env.reset(seed=seed)
-        done = False
-        while not done:
-            want, _ = TEACHER.predict(obs)
-            got, _ = clone.predict(obs)
-            same.append(bool(np.array_equal(want, got)))
-            obs, _, terminated, truncated, _ = env.step(want)
-            done = terminated or truncated
-    assert np.mean(same) >= 0.9
+    assert agreement(clone, TEACHER, atlas) >= 0.9  # the teacher drives
 
 
 def test_shared_clone_statistics_are_the_teachers_vehicle_views(clone, atlas) -> None:
