@@ -41,7 +41,7 @@ def rows(s: dict[str, Any]) -> list[list[str]]:
     out = [["target", "measured", ""]]
     for p, a in s["agents"].items():
         if a.get("kind", "central") != "central":  # the target is the centralised agent's
-            out.append([f"shared PPO ({p}'s RUL) against the tuned {a['heuristic']}",
+            out.append([f"shared PPO ({a['predictor']}'s RUL) against the tuned {a['heuristic']}",
                         f"IQM ratio {_iv(a['ratio_to_heuristic'])}, difference"
                         f" {_iv(a['minus_heuristic'], 2)}; {a['seeds']} seeds",
                         "reported"])  # fmt: skip
@@ -61,10 +61,10 @@ def rows(s: dict[str, Any]) -> list[list[str]]:
             out.append([f"gap to the reference: {row['predictor']} / {row['policy']}",
                         f"ratio {_iv(row['ratio_to_reference'])}, difference"
                         f" {_iv(row['gap_to_reference'], 2)}", "reported"])  # fmt: skip
-    for p, a in s["agents"].items():
+    for a in s["agents"].values():
         if "ratio_to_reference" in a:
             name = "MaskablePPO" if a.get("kind", "central") == "central" else "shared PPO"
-            out.append([f"gap to the reference: {p} / {name} (IQM)",
+            out.append([f"gap to the reference: {a['predictor']} / {name} (IQM)",
                         f"ratio {_iv(a['ratio_to_reference'])}", "reported"])  # fmt: skip
     rk = s["ranking"]
     if rk["head"] == "twin" and rk["head_minus"]:

@@ -96,9 +96,10 @@ def report(summary: dict[str, Any], markdown: bool = False) -> str:
     rk = summary["ranking"]
     lines.append("\nPredictors by their best heuristic's cost: "
                  + ", ".join(f"{p} {rk['cost'][p]:.2f}" for p in rk["order"]))  # fmt: skip
-    rows = [["predictor", f"{rk['head']} minus it", f"{rk['head']} / it"]]
-    rows += [[p, _ivs(v["difference"]), _ivs(v["ratio"])] for p, v in rk["head_minus"].items()]
-    lines.append(table(rows, markdown))
+    if rk["head_minus"]:  # one predictor alone has nothing to be compared with
+        rows = [["predictor", f"{rk['head']} minus it", f"{rk['head']} / it"]]
+        rows += [[p, _ivs(v["difference"]), _ivs(v["ratio"])] for p, v in rk["head_minus"].items()]
+        lines.append(table(rows, markdown))
     for a in summary["agents"].values():
         lines.append(
             f"\n{_agent_name(a)} with the {a['predictor']}'s RUL, {a['seeds']} training seeds"

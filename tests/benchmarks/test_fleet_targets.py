@@ -57,3 +57,16 @@ def test_the_rl_target_needs_ten_percent_an_interval_below_zero_ten_seeds_and_ti
 
 def test_the_twin_must_beat_each_predictor_with_an_interval_below_zero():
     assert verdicts(summary(iv(0.85, 0.8, 0.9), iv(-3, -4, -2), twin_minus=0.2))[-1] == "MISSED"
+
+
+def test_the_shared_agent_is_reported_not_judged():
+    s = summary(iv(0.85, 0.8, 0.9), iv(-3, -4, -2))
+    s["agents"]["twin, shared"] = {
+        "kind": "shared", "predictor": "twin", "heuristic": "(n, N)", "seeds": 10,
+        "ratio_to_heuristic": iv(3.9, 3.0, 5.0), "minus_heuristic": iv(64, 44, 88),
+        "ratio_to_reference": iv(4.0, 3.0, 5.2),
+    }  # fmt: skip
+    got = ft.rows(s)[1:]
+    assert [r[-1] for r in got] == ["met", "reported", "reported", "reported", "met"]
+    assert got[1][0] == "shared PPO (twin's RUL) against the tuned (n, N)"
+    assert got[3][0] == "gap to the reference: twin / shared PPO (IQM)"
