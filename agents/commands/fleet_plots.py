@@ -82,13 +82,17 @@ def plot_curves(agents: Mapping[str, Any], path: str | Path) -> Path:
     training seed, and its predictor's best tuned heuristic as a line."""
     fig = Figure(figsize=(7, 4), layout="constrained")
     ax = fig.add_subplot()
-    for i, (p, a) in enumerate(agents.items()):
-        color = f"C{i}"
+    drawn: set[str] = set()  # each predictor's heuristic once
+    for i, (label, a) in enumerate(agents.items()):
+        color, p = f"C{i}", a.get("predictor", label)
+        name = "MaskablePPO" if a.get("kind", "central") == "central" else "shared MaskablePPO"
         for j, c in enumerate(a["curves"]):
             ax.plot(c["timesteps"], c["cost"], color=color, alpha=0.5, lw=1,
-                    label=f"MaskablePPO, {p} (each seed)" if j == 0 else None)  # fmt: skip
-        ax.axhline(a["heuristic_cost"], color=color, ls="--",
-                   label=f"{a['heuristic']} tuned, {p}'s RUL (evaluation episodes)")  # fmt: skip
+                    label=f"{name}, {p}'s RUL (each seed)" if j == 0 else None)  # fmt: skip
+        if p not in drawn:
+            drawn.add(p)
+            ax.axhline(a["heuristic_cost"], color=color, ls="--",
+                       label=f"{a['heuristic']} tuned, {p}'s RUL (evaluation episodes)")  # fmt: skip
     ax.set_yscale("log")
     ax.set_xlabel("shifts of training")
     ax.set_ylabel("cost per vehicle-shift (log scale)")
