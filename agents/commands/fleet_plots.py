@@ -91,8 +91,8 @@ def plot_curves(agents: Mapping[str, Any], path: str | Path) -> Path:
                     label=f"{name}, {p}'s RUL (each seed)" if j == 0 else None)  # fmt: skip
         if p not in drawn:
             drawn.add(p)
-            ax.axhline(a["heuristic_cost"], color=color, ls="--",
-                       label=f"{a['heuristic']} tuned, {p}'s RUL (evaluation episodes)")  # fmt: skip
+            tuned = f"{a['heuristic']} tuned, {p}'s RUL (evaluation episodes)"
+            ax.axhline(a["heuristic_cost"], color=color, ls="--", label=tuned)
     ax.set_yscale("log")
     ax.set_xlabel("shifts of training")
     ax.set_ylabel("cost per vehicle-shift (log scale)")
