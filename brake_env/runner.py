@@ -216,9 +216,7 @@ class Runner:
         """
         keys = _checked_order(nodes)
         results = {k: store.load(k) for k in keys if store is not None and kept(k) and k in store}
-        for k in list(results):
-            if progress:
-                progress(k, results[k])
+        _report(results, progress)  # the units read from the store
         errors: dict[str, BaseException] = {}
 
         def unit_of(n: Unit | Later) -> Unit | None:
@@ -226,7 +224,11 @@ class Runner:
             if failed:
                 errors[n.key] = RuntimeError(f"not run: it needs {', '.join(failed)}, which failed")
                 return None
-            u = n if isinstance(n, Unit) else n.make(results)
+            try:  # a make that raises is that unit's failure, named with the others
+                u = n if isinstance(n, Unit) else n.make(results)
+            except Exception as e:
+                errors[n.key] = e
+                return None
             if u.key != n.key:
                 raise ValueError(f"run_graph: {n.key}'s make gave a unit named {u.key}")
             return u
@@ -288,6 +290,12 @@ def _checked_order(nodes: Sequence[Unit | Later]) -> list[str]:
             raise ValueError(f"run_graph: {n.key} needs {late}, which must come before it")
         before.add(n.key)
     return keys
+
+
+def _report(results: Mapping[str, Any], progress: Callable[[str, Any], object] | None) -> None:
+    for k, v in results.items():
+        if progress:
+            progress(k, v)
 
 
 def _needs(n: Unit | Later) -> tuple[str, ...]:

@@ -187,3 +187,11 @@ def test_on_ray_the_heaviest_ready_units_start_first(local_ray):
     with Runner(workers=2) as r:  # two CPUs: two units at a time
         t = r.run_graph([*light, *heavy])
     assert max(t["heavy0"], t["heavy1"]) < min(t["light0"], t["light1"])
+
+
+def test_a_graph_names_a_unit_whose_make_raised():
+    nodes = graph()
+    nodes[1] = Later("a", ("fit",), lambda r: Unit("a", add, (r["no such unit"], 1)))
+    with pytest.raises(UnitsFailed) as e:
+        Runner(0).run_graph(nodes)
+    assert set(e.value.errors) == {"a", "sum"} and "KeyError" in str(e.value)
