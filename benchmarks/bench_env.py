@@ -33,7 +33,7 @@ import gymnasium as gym
 import numpy as np
 
 import brake_env  # noqa: F401  (registers BrakeWear-v0)
-from brake_env.env.brake_wear import default_atlas
+from brake_env.env.shared import default_atlas
 from brake_env.env.wrappers import RULObservation
 from brake_env.model.simulator import simulate_runs
 from brake_env.output import table, write_json

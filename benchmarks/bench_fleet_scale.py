@@ -55,7 +55,6 @@ import numpy as np
 from agents.study import pads as pad_study
 from agents.study.config import StudyConfig
 from agents.study.pads import GROUP, PadDraws, collect_pads
-from agents.study.tuning import fit_predictors
 from brake_env.data.datasets import measure
 from brake_env.env.config import EnvConfig
 from brake_env.model.atlas import Atlas, cached_atlas
@@ -63,6 +62,7 @@ from brake_env.model.simulator import simulate_runs
 from brake_env.output import table, write_json
 from brake_env.prognostics.fleet import Fleet, take_events
 from brake_env.prognostics.protocol import MEASURED, EventBatch, Predictor
+from brake_env.prognostics.registry import fit_predictors
 
 TEMPLATES = 32  # warmed pads whose state the slots of a big fleet copy
 SOURCES_PER_LABEL = 4  # simulated lives per wear-regime label the events come from

@@ -5,7 +5,7 @@ episodes (common random numbers).
 
 1. The heuristic is rebuilt from the parameters ``fleet_room.py --json`` saved (``tuned``):
    the one ``--heuristic`` names (default: the best combination, the one selected there).
-2. MaskablePPO (``agents.learning.fleet_agent``) is trained for ``--timesteps`` shifts on
+2. MaskablePPO (``agents.fleet.learning.agent``) is trained for ``--timesteps`` shifts on
    ``--n-envs`` envs, one model per ``--seeds`` seed (episode seeds from the training seed,
    apart from the evaluation seeds 0..); every ``--eval-every`` shifts the agent's cost on
    ``--curve-seeds`` tuning episodes (seeds from 20,000) is recorded: a learning curve.
@@ -38,19 +38,19 @@ from typing import Any
 
 import numpy as np
 
-from agents.learning.fleet_agent import (
+from agents.fleet.evaluation.costs import evaluate, paired_interval
+from agents.fleet.evaluation.tuning import SPACES
+from agents.fleet.learning.agent import (
     FleetAgent,
-    FleetTraining,
     Imitation,
     oracle_fleet_env,
     train_fleet_agent,
 )
-from agents.policies.fleet_reference import ReferenceModel, ReferencePolicy, solve
-from agents.policies.fleet_view import FleetLayout
-from agents.study.fleet_costs import evaluate, paired_interval
-from agents.study.fleet_tuning import SPACES
-from brake_env.env.brake_wear import default_atlas
+from agents.fleet.policies.reference import ReferenceModel, ReferencePolicy, solve
+from agents.fleet.policies.view import FleetLayout
+from agents.fleet.settings import FleetTraining
 from brake_env.env.fleet.config import SMALL_FLEET, FleetConfig
+from brake_env.env.shared import default_atlas
 from brake_env.output import write_json
 
 CURVE_SEED0 = 20_000

@@ -10,11 +10,11 @@ closed-form expected RUL on the hot route from the true volume and K
 (``ExpectedRULObservation``; ``--rul oracle``: the oracle predictor through
 ``FleetRULObservation`` on ``truth=True``, the simulated-ahead RUL, ~20x slower).
 
-1. Each heuristic (agents.policies.fleet; search spaces in agents.study.fleet_tuning,
+1. Each heuristic (agents.fleet.policies.rules; search spaces in agents.fleet.evaluation.tuning,
    the seven of issue 20 and ``standby``) is tuned with Optuna (TPE, seeded) on the tuning
    seeds (``--tune-seeds`` episodes from seed 10_000) for ``--trials`` trials (the
    combination, 8 parameters, for ``--trials-best``, default 3x).
-2. The reference (agents.policies.fleet_reference): exact dynamic program over the
+2. The reference (agents.fleet.policies.reference): exact dynamic program over the
    episode plus ``--tail`` shifts, followed in the env by one-step look-ahead, spares by
    the (s, S) of the heuristic chosen as best on the tuning seeds.
 3. Every policy runs the evaluation seeds (``--eval-seeds`` episodes from seed 0): common
@@ -41,13 +41,13 @@ from typing import Any
 
 import numpy as np
 
-from agents.policies.fleet_reference import ReferenceModel, ReferencePolicy, solve
-from agents.policies.fleet_view import ExpectedRULObservation, FleetLayout
-from agents.study.fleet_costs import EpisodeCost, paired_interval, run_episodes, term_means
-from agents.study.fleet_tuning import SPACES, tune
+from agents.fleet.evaluation.costs import EpisodeCost, paired_interval, run_episodes, term_means
+from agents.fleet.evaluation.tuning import SPACES, tune
+from agents.fleet.policies.reference import ReferenceModel, ReferencePolicy, solve
+from agents.fleet.policies.view import FleetLayout
 from brake_env.env.fleet.config import SMALL_FLEET, FleetConfig
 from brake_env.env.fleet.env import BrakeWearFleetEnv
-from brake_env.env.fleet.wrappers import FleetRULObservation
+from brake_env.env.fleet.wrappers import ExpectedRULObservation, FleetRULObservation
 from brake_env.output import table, write_json
 from brake_env.prognostics.registry import make_predictor
 

@@ -17,12 +17,13 @@ from typing import Any
 
 import numpy as np
 
-from agents.policies.fleet import opportunistic_rule, threshold_rule, window_rule
-from agents.policies.fleet_reference import ReferenceModel, ReferencePolicy, solve
-from agents.policies.fleet_view import ExpectedRULObservation, FleetLayout
-from agents.study.fleet_costs import run_episodes, term_means
+from agents.fleet.evaluation.costs import run_episodes, term_means
+from agents.fleet.policies.reference import ReferenceModel, ReferencePolicy, solve
+from agents.fleet.policies.rules import opportunistic_rule, threshold_rule, window_rule
+from agents.fleet.policies.view import FleetLayout
 from brake_env.env.fleet.config import SMALL_FLEET, FleetConfig
 from brake_env.env.fleet.env import BrakeWearFleetEnv
+from brake_env.env.fleet.wrappers import ExpectedRULObservation
 from brake_env.output import table
 
 SHOWN = ("pad", "labour", "shop_visit", "damage", "downtime", "shortfall", "mild_shortfall")

@@ -24,8 +24,10 @@ from brake_env.cli.common import (
     int_at_least,
     load_atlas,
     make_runner,
+    predictor_list,
     wear_regime,
 )
+from brake_env.cli.demo import DEMO_PREDICTORS, DEMO_WORKERS
 from brake_env.env.config import REGIMES, EnvConfig
 from brake_env.output import table, write_json
 from brake_env.prognostics.registry import predictor_names
@@ -34,16 +36,6 @@ from brake_env.runner import Runner, ray_available
 if TYPE_CHECKING:
     from brake_env.cli.demo import DemoContext
     from brake_env.model.atlas import Atlas
-
-
-def _names(text: str) -> tuple[str, ...]:
-    out = tuple(x.strip() for x in text.split(",") if x.strip())
-    bad = [x for x in out if x not in predictor_names()]
-    if bad:
-        raise argparse.ArgumentTypeError(
-            f"unknown predictor(s) {bad}; valid are {predictor_names()}"
-        )
-    return out
 
 
 def _env_args(sp: argparse.ArgumentParser) -> None:
@@ -151,8 +143,6 @@ def compare_and_report(
 
 # ---------------------------------------------------------------------- demo
 DEMO_TUNE_PADS, DEMO_EVAL_PADS = 34, 70  # per label: 102 tuning and 210 held-out pads
-DEMO_PREDICTORS = ("none", "physics", "data", "twin", "oracle")  # the paper's three
-DEMO_WORKERS = 2  # a local Ray's CPUs for the demo's pads (in this process without Ray)
 
 
 def demo_compare(ctx: DemoContext) -> tuple[dict[str, Any], str]:
@@ -177,60 +167,6 @@ def demo_compare(ctx: DemoContext) -> tuple[dict[str, Any], str]:
             config, atlas, out, args.seed, runner, quiet=args.quiet, resume=False
         )
     return summary, markdown_section(summary, "compare")
-
-
-# ---------------------------------------------------------------------- fleet study
-def cmd_fleet_study(args: argparse.Namespace) -> dict[str, Any]:
-    from agents.commands.fleet_study import config_from_args, study_and_report
-
-    config = config_from_args(args)
-    with make_runner(args) as runner:
-        return study_and_report(config, load_atlas(args), Path(args.out), runner,
-                                quiet=args.quiet)  # fmt: skip
-
-
-def demo_fleet(ctx: DemoContext) -> tuple[dict[str, Any], str]:
-    """The fleet study on the small fleet at a budget the demo can afford: the demo's
-    predictors, two heuristics tuned on few trials, the reference, 180-shift episodes; no
-    agent (a MaskablePPO seed trains in 400-450 s on a quiet 2-core machine; the report
-    says so)."""
-    from agents.commands.fleet_config import FleetStudyConfig
-    from agents.commands.fleet_study import report, study_and_report
-
-    args, d = ctx.args, DEMO_FLEET
-    config = FleetStudyConfig(
-        predictors=DEMO_PREDICTORS, heuristics=d["heuristics"], shifts=d["shifts"],
-        trials=d["trials"], trials_best=d["trials"], tune_episodes=2,
-        eval_episodes=d["episodes"], n_train_runs=max(3, args.n_train), seed=args.seed,
-    )  # fmt: skip
-    out = ctx.out / "fleet"
-    with Runner(DEMO_WORKERS) if ray_available() else Runner(0) as runner:
-        summary = study_and_report(config, load_atlas(args), out, runner, quiet=args.quiet,
-                                   resume=False)  # fmt: skip
-    figs = "\n".join(f"![{Path(f).stem}](fleet/{f})" for f in summary["figures"])
-    section = f"""## The fleet study (BrakeWearFleet-v0, small fleet)
-
-A small budget: {d["shifts"]}-shift episodes, {", ".join(d["heuristics"])} tuned with
-{d["trials"]} Optuna trials on 2 tuning episodes, {d["episodes"]} evaluation episodes, no
-best combination and no agent (a MaskablePPO training seed takes 400-450 s on a quiet
-2-core machine, the study trains 10). At this budget
-the heuristics are under-tuned and the intervals wide: the ranking below is what this
-budget shows, not the study's result (README "The fleet study" has the full run and its
-command). On episodes this short a tuned heuristic can come out below the reference (a
-ratio under 1): the reference plans 200 shifts past the episode's end, the heuristics
-are tuned on the episode alone.
-
-{report(summary, markdown=True)}
-
-{figs}
-"""
-    return summary, section
-
-
-# The demo's fleet study (README "The fleet study" has the full budget).
-DEMO_FLEET: dict[str, Any] = {
-    "heuristics": ("threshold", "(n, N)"), "shifts": 180, "trials": 6, "episodes": 16,
-}  # fmt: skip
 
 
 # ---------------------------------------------------------------------- hyperparams
@@ -287,9 +223,14 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
     add_common_args(c, "out/compare")
     c.add_argument("--timesteps", type=int_at_least(1), default=100_000, help="per agent")
     c.add_argument("--algo", choices=ALGOS, default="ppo")
-    c.add_argument("--predictors", type=_names, default=predictor_names(), help="comma-separated")
     c.add_argument(
-        "--agents", type=_names, default=("twin", "oracle"), help="predictors given an agent"
+        "--predictors", type=predictor_list, default=predictor_names(), help="comma-separated"
+    )
+    c.add_argument(
+        "--agents",
+        type=predictor_list,
+        default=("twin", "oracle"),
+        help="predictors given an agent",
     )
     c.add_argument("--n-train-runs", type=int_at_least(1), default=10, help="pads to fit on")
     c.add_argument("--tune-pads", type=int_at_least(1), default=100, help="per wear label")
@@ -299,59 +240,3 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
     c.add_argument("--atlas", default=None, help="atlas .npz instead of the cache")
     _env_args(c)
     c.set_defaults(func=cmd_compare)
-    _register_fleet_study(sub, fmt)
-
-
-# The fleet study's choices as the parser shows them (agents.commands.fleet_config holds the
-# same, tested equal; importing it here would load scipy and Optuna for ``--help``). A
-# heuristic name is checked by FleetStudyConfig, which names the valid ones.
-FLEET_SIZES = ("small", "default")
-FLEET_PREDICTORS = ("none", "physics", "data", "twin", "window", "oracle")
-FLEET_HEURISTICS = ("threshold", "(n, N)", "best combination")
-
-
-def _register_fleet_study(sub: argparse._SubParsersAction[Any], fmt: Any) -> None:
-    f = sub.add_parser(
-        "fleet-study",
-        formatter_class=fmt,
-        help="every policy x predictor on BrakeWearFleet-v0: heuristics tuned, the reference,"
-        " MaskablePPO over training seeds, on the same evaluation episodes",
-    )
-    add_common_args(f, "out/fleet-study")
-    f.add_argument(
-        "--size", choices=FLEET_SIZES, default="small", help="small: 2 vehicles (reference)"
-    )
-    f.add_argument("--shifts", type=int_at_least(2), default=365, help="an episode")
-    f.add_argument("--predictors", type=_names, default=FLEET_PREDICTORS, help="comma-separated")
-    f.add_argument(
-        "--heuristics", nargs="+", default=FLEET_HEURISTICS, metavar="NAME",
-        help="heuristics to tune, each quoted (agents.study.fleet_tuning.SPACES: threshold,"
-        " time-to-window, '(n, N)', capacity greedy, duty rule, '(s, S)', standby, best"
-        " combination)",
-    )  # fmt: skip
-    f.add_argument("--trials", type=int_at_least(1), default=15, help="Optuna, per heuristic")
-    f.add_argument("--trials-best", type=int_at_least(1), default=45, help="the combination's")
-    f.add_argument("--tune-episodes", type=int_at_least(1), default=3)
-    f.add_argument("--eval-episodes", type=int_at_least(2), default=40)
-    f.add_argument("--n-train-runs", type=int_at_least(1), default=10, help="pads to fit on")
-    f.add_argument("--agents", type=_names, default=(), help="predictors given MaskablePPO")
-    f.add_argument(
-        "--agent-seeds", type=int_at_least(0), default=10,
-        help="training seeds of MaskablePPO (one policy for the fleet) per agent",
-    )  # fmt: skip
-    f.add_argument(
-        "--shared-seeds", type=int_at_least(0), default=0,
-        help="training seeds of the parameter-shared PPO (one policy per vehicle) per agent",
-    )  # fmt: skip
-    f.add_argument("--timesteps", type=int_at_least(1), default=20_000, help="PPO, per agent")
-    f.add_argument("--dagger", type=int_at_least(0), default=1, help="DAgger rounds of cloning")
-    f.add_argument("--learning-rate", type=float, default=1e-4, help="PPO's, after cloning")
-    f.add_argument("--ent-coef", type=float, default=0.0, help="PPO's entropy coefficient")
-    f.add_argument(
-        "--imitate", type=int_at_least(0), default=20,
-        help="episodes of the predictor's best heuristic each agent clones before PPO (0: none)",
-    )  # fmt: skip
-    f.add_argument("--curve-every", type=int_at_least(1), default=10_000, help="shifts")
-    add_runner_args(f, workers=2)
-    f.add_argument("--atlas", default=None, help="atlas .npz instead of the cache")
-    f.set_defaults(func=cmd_fleet_study)

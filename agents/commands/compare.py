@@ -28,9 +28,10 @@ from agents.study.config import StudyConfig
 from agents.study.pads import PadSet
 from agents.study.ranking import rank_policies
 from agents.study.results import CompareResult, Timing, Tuning
-from agents.study.tuning import fit_predictors, id_life, tune
+from agents.study.tuning import id_life, tune
 from brake_env.model.atlas import Atlas
 from brake_env.prognostics.protocol import Predictor
+from brake_env.prognostics.registry import fit_predictors
 from brake_env.runner import Runner
 
 

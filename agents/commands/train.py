@@ -31,11 +31,12 @@ from agents.study.config import StudyConfig
 from agents.study.pads import PadDraws, PadSet
 from agents.study.ranking import rank_policies
 from agents.study.results import RatioResult
-from agents.study.tuning import fit_predictors, id_life, tune
+from agents.study.tuning import id_life, tune
 from brake_env.env.config import EnvConfig
 from brake_env.model.atlas import Atlas
 from brake_env.output import table, write_json
 from brake_env.prognostics.protocol import Predictor
+from brake_env.prognostics.registry import fit_predictors
 from brake_env.runner import Runner
 
 STAGES = {"curve": 3, "held-out": 4}  # seed keys of the curve's and the held-out pads

@@ -1,11 +1,9 @@
 """Tuning the rule families of the cost study on the tuning pads: every candidate threshold
-and fixed-interval age, the cheapest of each family at each cost ratio; and the predictors
-fitted on freshly simulated training pads."""
+and fixed-interval age, the cheapest of each family at each cost ratio."""
 
 from __future__ import annotations
 
 import math
-import time
 
 import numpy as np
 
@@ -14,33 +12,8 @@ from agents.study import outcomes as oc
 from agents.study.config import StudyConfig
 from agents.study.pads import PadSet
 from agents.study.results import Tuning
-from brake_env.data.datasets import DatasetSpec, make_dataset
 from brake_env.model.atlas import Atlas
-from brake_env.model.regime import WearRegime
 from brake_env.model.wear import WearModel
-from brake_env.prognostics.protocol import Predictor
-from brake_env.prognostics.registry import make_predictor
-
-
-def fit_predictors(
-    names: tuple[str, ...],
-    atlas: Atlas,
-    seed: int,
-    n_train_runs: int,
-    wear: WearRegime | None = None,
-) -> tuple[dict[str, Predictor], dict[str, float]]:
-    """Each named predictor fitted on ``n_train_runs`` freshly simulated training pads whose
-    K follows ``wear`` (default :class:`WearRegime`'s); and the seconds each fit took."""
-    spec = DatasetSpec(
-        n_train=n_train_runs, n_id=0, n_ood_slow=0, n_ood_fast=0, wear=wear or WearRegime()
-    )
-    train_log = make_dataset(atlas, spec, seed).logs["train"]
-    fitted, seconds = {}, {}
-    for name in names:
-        t0 = time.perf_counter()
-        fitted[name] = make_predictor(name, atlas, seed).fit(train_log)
-        seconds[name] = time.perf_counter() - t0
-    return fitted, seconds
 
 
 def id_life(config: StudyConfig, atlas: Atlas) -> float:

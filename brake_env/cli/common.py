@@ -15,6 +15,7 @@ from tqdm import tqdm
 from brake_env.model.atlas import Atlas, AtlasSpec, cached_atlas
 from brake_env.model.params import BrakeModel
 from brake_env.model.regime import WearRegime
+from brake_env.prognostics.registry import predictor_names
 from brake_env.runner import Runner, ray_available
 
 
@@ -100,6 +101,20 @@ def make_runner(args: argparse.Namespace) -> Runner:
         )
         workers = 0
     return Runner(workers=workers, address=address)
+
+
+def predictor_list(text: str) -> tuple[str, ...]:
+    """``--predictors``-style argument: comma-separated names of the predictor registry
+    (:func:`~brake_env.prognostics.registry.predictor_names`), at least one."""
+    out = tuple(x.strip() for x in text.split(",") if x.strip())
+    if not out:
+        raise argparse.ArgumentTypeError(f"name at least one predictor of {predictor_names()}")
+    bad = [x for x in out if x not in predictor_names()]
+    if bad:
+        raise argparse.ArgumentTypeError(
+            f"unknown predictor(s) {bad}; valid are {predictor_names()}"
+        )
+    return out
 
 
 def plugins(group: str) -> list[Any]:

@@ -41,6 +41,11 @@ class DemoContext:
 
 
 DemoStage = Callable[[DemoContext], tuple[Any, str]]
+# What the stages that compare policies share: the paper's three predictors between no
+# prognostics and the oracle, and a local Ray's CPUs for their units (in this process
+# without Ray).
+DEMO_PREDICTORS = ("none", "physics", "data", "twin", "oracle")
+DEMO_WORKERS = 2
 
 
 def cmd_demo(args: argparse.Namespace) -> dict[str, Any]:

@@ -13,8 +13,8 @@ from numpy.typing import NDArray
 from brake_env.env.config import EnvConfig
 from brake_env.env.pads import PadLife, PadService
 from brake_env.env.render import Dashboard
-from brake_env.model.atlas import Atlas, AtlasSpec, cached_atlas
-from brake_env.model.params import BrakeModel
+from brake_env.env.shared import check_render_mode, env_atlas
+from brake_env.model.atlas import Atlas
 from brake_env.prognostics.protocol import MEASURED
 
 KEEP, REPLACE = 0, 1
@@ -24,7 +24,6 @@ OBS_NAMES = (*MEASURED, "events_since_install")
 _OBS_LOW = np.array([0.0, 0.0, -np.pi / 2, 0.0, -273.15, 0.0, 0.0], dtype=np.float32)
 _OBS_HIGH = np.array([200.0, 1e6, np.pi / 2, 1e9, 3000.0, 1e4, 0.0], dtype=np.float32)
 
-_ATLASES: dict[tuple[str, str | None], Atlas] = {}
 NO_HUMAN_MODE = (
     "BrakeWear-v0 has no 'human' render mode (its render_modes are 'ansi' and 'rgb_array');"
     " use render_mode='rgb_array' and show the frames, or wrap that env in"
@@ -63,14 +62,6 @@ def make_env(**kwargs: Any) -> gym.Env[Any, Any]:
     if isinstance(mode, str) and mode.endswith("_list") and mode[:-5] in ("ansi", "rgb_array"):
         return gym.wrappers.RenderCollection(BrakeWearEnv(**{**kwargs, "render_mode": mode[:-5]}))
     return BrakeWearEnv(**kwargs)
-
-
-def default_atlas(preset: str = "hot-duty", cache_dir: str | None = None) -> Atlas:
-    """The preset's atlas from the on-disk cache (built once, ~1 s), shared in the process."""
-    key = (preset, cache_dir or os.environ.get("BRAKEWEAR_CACHE_DIR"))
-    if key not in _ATLASES:
-        _ATLASES[key] = cached_atlas(AtlasSpec(model=BrakeModel.preset(preset)), cache_dir)
-    return _ATLASES[key]
 
 
 def observation_space(config: EnvConfig) -> spaces.Box:
@@ -183,17 +174,9 @@ class BrakeWearEnv(gym.Env[NDArray[np.float32], np.int64]):
         self.config = EnvConfig.from_kwargs(config, **kwargs)
         if render_mode == "human":
             raise ValueError(NO_HUMAN_MODE)
-        if render_mode not in (None, *self.metadata["render_modes"]):
-            raise ValueError(
-                "BrakeWear-v0: render_mode must be None, 'ansi' or 'rgb_array',"
-                f" got {render_mode!r}"
-            )
+        check_render_mode("BrakeWear-v0", render_mode, self.metadata["render_modes"])
         self.render_mode = render_mode
-        if atlas is None:
-            atlas = default_atlas(self.config.preset)
-        elif not isinstance(atlas, Atlas):
-            atlas = Atlas.load(atlas)
-        self.atlas = atlas
+        self.atlas = atlas = env_atlas(atlas, self.config.preset)
         self.action_space = spaces.Discrete(2)
         self._box = observation_space(self.config)
         self.observation_space = self._box  # type: ignore[assignment]  # Box of float32

@@ -14,14 +14,14 @@ from typing import Any, Literal
 import numpy as np
 
 from brake_env._validate import (
-    check_keywords,
     check_nonnegative,
     check_range,
-    from_dict,
 )
+from brake_env.env.shared import check_choice, check_int_fields, check_types, config_from_kwargs
 from brake_env.model.regime import Label, WearRegime
 from brake_env.model.simulator import SensorNoise
 
+ENV_ID = "BrakeWear-v0"
 REGIMES = ("id", "ood", "mixed")
 PRESETS = ("hot-duty", "cold-start")
 MAX_DECISION_INTERVAL = 10_000  # well below the shortest pad life (~7e4 events at +6 sigma)
@@ -155,31 +155,16 @@ class EnvConfig:
     pad_pool_seed: int = 0
 
     def __post_init__(self) -> None:
-        for name, lo, hi in (
+        check_int_fields(ENV_ID, self, (
             ("decision_interval", 1, MAX_DECISION_INTERVAL),
             ("episode_events", 2, 10**9),
             ("cache_pads", 0, 10_000),
             ("pad_pool", 0, 10_000),
             ("pad_pool_seed", 0, 2**63 - 1),
-        ):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, int | np.integer) or not lo <= v <= hi:
-                raise ValueError(f"BrakeWear-v0: {name} must be an int in [{lo}, {hi}], got {v!r}")
-        if self.preset not in PRESETS:
-            raise ValueError(
-                f"BrakeWear-v0: preset must be one of {list(PRESETS)}, got {self.preset!r}"
-            )
-        for name, kind in (("costs", CostWeights), ("noise", SensorNoise)):
-            if not isinstance(getattr(self, name), kind):
-                raise TypeError(
-                    f"BrakeWear-v0: {name} must be {kind.__name__} or a dict of its fields,"
-                    f" got {getattr(self, name)!r}"
-                )
-        for name in ("interpolate_layers", "truth"):
-            if not isinstance(getattr(self, name), bool):
-                raise ValueError(
-                    f"BrakeWear-v0: {name} must be a bool, got {getattr(self, name)!r}"
-                )
+        ))  # fmt: skip
+        check_choice(ENV_ID, "preset", self.preset, PRESETS)
+        check_types(ENV_ID, self, {"costs": CostWeights, "noise": SensorNoise,
+                                   "interpolate_layers": bool, "truth": bool})  # fmt: skip
         self.pad_regime  # validates the regime fields  # noqa: B018
 
     @property
@@ -198,12 +183,8 @@ class EnvConfig:
     @classmethod
     def from_kwargs(cls, base: EnvConfig | None = None, **kwargs: Any) -> EnvConfig:
         """``base`` (default config if None) with ``kwargs`` replaced, all validated."""
-        check_keywords("BrakeWear-v0", kwargs, (f.name for f in dataclasses.fields(cls)))
-        if isinstance(kwargs.get("costs"), dict):
-            kwargs["costs"] = from_dict(CostWeights, kwargs["costs"])
-        if isinstance(kwargs.get("noise"), dict):
-            kwargs["noise"] = from_dict(SensorNoise, kwargs["noise"])
-        return dataclasses.replace(base or cls(), **kwargs)
+        nested = {"costs": CostWeights, "noise": SensorNoise}
+        return config_from_kwargs(ENV_ID, cls, base, kwargs, nested)
 
     def to_kwargs(self) -> dict[str, Any]:
         """Every field as JSON-ready keyword arguments: ``from_kwargs(**to_kwargs())`` gives

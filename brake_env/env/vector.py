@@ -18,9 +18,10 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 from numpy.typing import NDArray
 
-from brake_env.env.brake_wear import REPLACE, BrakeWearEnv, default_atlas, observation_space
+from brake_env.env.brake_wear import REPLACE, BrakeWearEnv, observation_space
 from brake_env.env.config import EnvConfig
 from brake_env.env.pads import PadService
+from brake_env.env.shared import default_atlas
 from brake_env.model.atlas import Atlas
 
 

@@ -10,19 +10,25 @@ downstream packages (README "Architecture").
 
 from __future__ import annotations
 
+import time
 from collections.abc import Callable
 from functools import cache
 from importlib.metadata import entry_points
 
+from brake_env.data.datasets import DatasetSpec, make_dataset
 from brake_env.model.atlas import Atlas
+from brake_env.model.regime import WearRegime
 from brake_env.prognostics.protocol import NoPrognostics, Oracle, Predictor
 
 GROUP = "brakewear.predictors"
 Factory = Callable[[Atlas, int], Predictor]
+# The predictor that reads the truth instead of the events: no fit, and an env or a study
+# gives it the true RUL (studies list it last, as the upper bound of the comparison).
+ORACLE = Oracle.name
 
 _BUILTIN: dict[str, Factory] = {
-    "none": lambda atlas, seed: NoPrognostics(),
-    "oracle": lambda atlas, seed: Oracle(),
+    NoPrognostics.name: lambda atlas, seed: NoPrognostics(),
+    ORACLE: lambda atlas, seed: Oracle(),
 }
 
 
@@ -40,8 +46,8 @@ def predictor_names() -> tuple[str, ...]:
     """Every predictor name: ``none``, the paper's three, other plug-ins, ``oracle``."""
     names = {*_BUILTIN, *_plugins()}
     known = [n for n in _ORDER if n in names]
-    others = sorted(names - {*known, "oracle"})
-    return (*known, *others, "oracle")
+    others = sorted(names - {*known, ORACLE})
+    return (*known, *others, ORACLE)
 
 
 def make_predictor(name: str, atlas: Atlas, seed: int = 0) -> Predictor:
@@ -64,3 +70,25 @@ def make_predictor(name: str, atlas: Atlas, seed: int = 0) -> Predictor:
         raise ValueError(f"unknown predictor {name!r}; valid are {list(predictor_names())}")
     factory: Factory = ep.load()  # type: ignore[attr-defined]
     return factory(atlas, seed)
+
+
+def fit_predictors(
+    names: tuple[str, ...],
+    atlas: Atlas,
+    seed: int,
+    n_train_runs: int,
+    wear: WearRegime | None = None,
+) -> tuple[dict[str, Predictor], dict[str, float]]:
+    """Each named predictor fitted on ``n_train_runs`` freshly simulated training pads whose
+    K follows ``wear`` (default :class:`WearRegime`'s); and the seconds each fit took. The
+    studies of ``agents`` (single pad and fleet) fit their predictors here."""
+    spec = DatasetSpec(
+        n_train=n_train_runs, n_id=0, n_ood_slow=0, n_ood_fast=0, wear=wear or WearRegime()
+    )
+    train_log = make_dataset(atlas, spec, seed).logs["train"]
+    fitted, seconds = {}, {}
+    for name in names:
+        t0 = time.perf_counter()
+        fitted[name] = make_predictor(name, atlas, seed).fit(train_log)
+        seconds[name] = time.perf_counter() - t0
+    return fitted, seconds

@@ -12,10 +12,9 @@ import dataclasses
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
-import numpy as np
-
-from brake_env._validate import check_keywords, check_nonnegative, from_dict
+from brake_env._validate import check_nonnegative
 from brake_env.env.config import PRESETS, REGIMES, PadRegime
+from brake_env.env.shared import check_choice, check_int_fields, check_types, config_from_kwargs
 from brake_env.model.regime import WearRegime
 from brake_env.model.streams import SensorNoise
 
@@ -186,10 +185,7 @@ class FleetConfig:
     truth: bool = False
 
     def __post_init__(self) -> None:
-        for name, lo, hi in _INT_FIELDS:
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, int | np.integer) or not lo <= v <= hi:
-                raise ValueError(f"{ENV_ID}: {name} must be an int in [{lo}, {hi}], got {v!r}")
+        check_int_fields(ENV_ID, self, _INT_FIELDS)
         if self.hot_need + self.mild_need > self.n_vehicles:
             raise ValueError(
                 f"{ENV_ID}: hot_need + mild_need ({self.hot_need} + {self.mild_need}) must be"
@@ -199,22 +195,9 @@ class FleetConfig:
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, int | float) or not 0.0 <= v < 1.0:
                 raise ValueError(f"{ENV_ID}: {name} must be a number in [0, 1), got {v!r}")
-        if self.preset not in PRESETS:
-            raise ValueError(
-                f"{ENV_ID}: preset must be one of {list(PRESETS)}, got {self.preset!r}"
-            )
-        if self.regime not in REGIMES:
-            raise ValueError(
-                f"{ENV_ID}: regime must be one of {list(REGIMES)}, got {self.regime!r}"
-            )
-        for name, kind in (("costs", FleetCosts), ("noise", SensorNoise)):
-            if not isinstance(getattr(self, name), kind):
-                raise TypeError(
-                    f"{ENV_ID}: {name} must be {kind.__name__} or a dict of its fields,"
-                    f" got {getattr(self, name)!r}"
-                )
-        if not isinstance(self.truth, bool):
-            raise ValueError(f"{ENV_ID}: truth must be a bool, got {self.truth!r}")
+        check_choice(ENV_ID, "preset", self.preset, PRESETS)
+        check_choice(ENV_ID, "regime", self.regime, REGIMES)
+        check_types(ENV_ID, self, {"costs": FleetCosts, "noise": SensorNoise, "truth": bool})
         self.pad_regime  # validates the regime fields  # noqa: B018
 
     @property
@@ -236,9 +219,5 @@ class FleetConfig:
     @classmethod
     def from_kwargs(cls, base: FleetConfig | None = None, **kwargs: Any) -> FleetConfig:
         """``base`` (default config if None) with ``kwargs`` replaced, all validated."""
-        check_keywords(ENV_ID, kwargs, (f.name for f in dataclasses.fields(cls)))
-        if isinstance(kwargs.get("costs"), dict):
-            kwargs["costs"] = from_dict(FleetCosts, kwargs["costs"])
-        if isinstance(kwargs.get("noise"), dict):
-            kwargs["noise"] = from_dict(SensorNoise, kwargs["noise"])
-        return dataclasses.replace(base or cls(), **kwargs)
+        nested = {"costs": FleetCosts, "noise": SensorNoise}
+        return config_from_kwargs(ENV_ID, cls, base, kwargs, nested)

@@ -9,13 +9,14 @@ import gymnasium as gym
 import numpy as np
 from numpy.typing import NDArray
 
-from brake_env.env.brake_wear import default_atlas
+from brake_env.env.fleet import rules
 from brake_env.env.fleet import spaces as fs
 from brake_env.env.fleet.config import COST_TERMS, ENV_ID, FleetConfig
 from brake_env.env.fleet.pads import FleetPads, ShiftEvents
 from brake_env.env.fleet.render import FleetFrame, ansi
 from brake_env.env.fleet.routes import ROUTES, UNIFORM, route_wear_model
 from brake_env.env.fleet.shop import Plan, Workshop
+from brake_env.env.shared import check_render_mode, env_atlas
 from brake_env.model.atlas import Atlas
 
 ROUTE_INDEX = {r.name: i for i, r in enumerate(ROUTES)}
@@ -138,16 +139,9 @@ class BrakeWearFleetEnv(gym.Env[NDArray[np.float32], NDArray[np.int64]]):
         **kwargs: Any,
     ) -> None:
         self.config = FleetConfig.from_kwargs(config, **kwargs)
-        if render_mode not in (None, *self.metadata["render_modes"]):
-            raise ValueError(
-                f"{ENV_ID}: render_mode must be None, 'ansi' or 'rgb_array', got {render_mode!r}"
-            )
+        check_render_mode(ENV_ID, render_mode, self.metadata["render_modes"])
         self.render_mode = render_mode
-        if atlas is None:
-            atlas = default_atlas(self.config.preset)
-        elif not isinstance(atlas, Atlas):
-            atlas = Atlas.load(atlas)
-        self.atlas = atlas
+        self.atlas = env_atlas(atlas, self.config.preset)
         self._actions = fs.action_space(self.config)
         self.action_space = self._actions
         self._box = fs.observation_space(self.config)
@@ -235,10 +229,12 @@ class BrakeWearFleetEnv(gym.Env[NDArray[np.float32], NDArray[np.int64]]):
 
     def action_masks(self) -> NDArray[np.bool_]:
         """Flat bool mask of length ``sum(action_space.nvec)`` for sb3-contrib's
-        MaskablePPO (see :func:`brake_env.env.fleet.spaces.action_mask`)."""
+        MaskablePPO (the rule of :func:`brake_env.env.fleet.rules.action_mask`)."""
         if self.pads is None:
             raise RuntimeError(f"{ENV_ID}: call reset() first")
-        return fs.action_mask(self.config, self.shop, self.shift)
+        c, shop = self.config, self.shop
+        window = c.is_window(self.shift)
+        return rules.action_mask(shop.down > 0, window, shop.stock, shop.free_bays(), c.max_order)
 
     # ------------------------------------------------------------------ truth
     def true_rul(self, route: str | int = "hot") -> NDArray[np.int64]:
@@ -311,9 +307,8 @@ class BrakeWearFleetEnv(gym.Env[NDArray[np.float32], NDArray[np.int64]]):
         self, plan: Plan, ev: ShiftEvents, fitted: NDArray[np.bool_], broke: NDArray[np.bool_],
         *, quantity: int, arrived: int, window: bool,
     ) -> dict[str, int]:  # fmt: skip
-        c = self.config
         on_hot, on_mild = int((plan.route == 0).sum()), int((plan.route == 1).sum())
-        extra_hot = max(on_hot - c.hot_need, 0)  # a ramp truck can muck a drift
+        short_hot, short_mild = rules.shortfall(self.config, on_hot, on_mild, window)
         return {
             "window_fits": int(plan.window_fit.sum()),
             "shop_fits": int(plan.shop_fit.sum()),
@@ -327,8 +322,8 @@ class BrakeWearFleetEnv(gym.Env[NDArray[np.float32], NDArray[np.int64]]):
             "arrived": arrived,
             "on_hot": on_hot,
             "on_mild": on_mild,
-            "shortfall": 0 if window else max(c.hot_need - on_hot, 0),
-            "mild_shortfall": 0 if window else max(c.mild_need - on_mild - extra_hot, 0),
+            "shortfall": short_hot,
+            "mild_shortfall": short_mild,
             "stock": self.shop.stock,
             "events": int(ev.n_done.sum()),
         }

@@ -1,12 +1,16 @@
-"""Observation and action layout of BrakeWearFleet-v0, and the mask of allowed actions.
+"""Observation and action layout of BrakeWearFleet-v0, and the reader of the observation.
 
 The observation is one flat float32 Box: ``VEHICLE_FEATURES`` for each vehicle in vehicle
-order, then ``FLEET_FEATURES``. :func:`split_observation` gives the two parts back as
-arrays. The action is ``MultiDiscrete([4] * n_vehicles + [max_order + 1])``: a duty per
-vehicle (0 hot, 1 mild, 2 park, 3 service), then the reorder quantity.
+order, then ``FLEET_FEATURES``, then what RUL wrappers append (``k`` fields per vehicle).
+:func:`split_observation` gives the first two parts back as arrays, :func:`read_observation`
+all three by name (what every policy reads). The mask is a rule (:mod:`.rules`).
+The action is ``MultiDiscrete([4] * n_vehicles + [max_order + 1])``: a duty per vehicle (0
+hot, 1 mild, 2 park, 3 service), then the reorder quantity.
 """
 
 from __future__ import annotations
+
+from dataclasses import dataclass
 
 import numpy as np
 from gymnasium import spaces
@@ -14,7 +18,7 @@ from numpy.typing import NDArray
 
 from brake_env.env.fleet.config import FleetConfig
 from brake_env.env.fleet.pads import ShiftEvents
-from brake_env.env.fleet.shop import HOT, MILD, PARK, SERVICE, Workshop
+from brake_env.env.fleet.shop import Workshop
 from brake_env.model.streams import SENSOR_CHANNELS
 
 F32 = NDArray[np.float32]
@@ -86,18 +90,50 @@ def fleet_observation(
     return np.clip(obs, box.low, box.high, out=obs)
 
 
-def action_mask(config: FleetConfig, shop: Workshop, shift: int) -> NDArray[np.bool_]:
-    """Flat mask of length ``sum(nvec)`` (sb3-contrib MaskablePPO): per vehicle, no duty
-    while down or during a window; service only with a spare in stock and, for a visit, a
-    free bay; every reorder quantity allowed. Limits across vehicles (two requests, one
-    bay) are left to the workshop's deferral rule (:mod:`.shop`)."""
-    n = config.n_vehicles
-    m = np.ones((n, 4), dtype=bool)
-    down = shop.down > 0
-    window = config.is_window(shift)
-    m[:, [HOT, MILD]] = ~(down | window)[:, None]
-    m[:, PARK] = True
-    m[:, SERVICE] = shop.stock > 0
-    if not window:
-        m[~down, SERVICE] &= shop.free_bays() > 0
-    return np.concatenate([m.ravel(), np.ones(config.max_order + 1, dtype=bool)])
+@dataclass(frozen=True)
+class FleetObservation:
+    """One (possibly RUL-wrapped) fleet observation, read by name.
+
+    Attributes:
+        vehicles: (n_vehicles, len(VEHICLE_FEATURES)) per-vehicle features.
+        fleet: ``FLEET_FEATURES`` by name (counts rounded to ints).
+        appended: (n_vehicles, k) values a RUL wrapper appended per vehicle (k may be 0).
+    """
+
+    vehicles: NDArray[np.float64]
+    fleet: dict[str, int]
+    appended: NDArray[np.float64]
+
+    def vehicle(self, feature: str) -> NDArray[np.float64]:
+        """One per-vehicle feature of ``VEHICLE_FEATURES`` for every vehicle."""
+        return self.vehicles[:, VEHICLE_FEATURES.index(feature)]
+
+    @property
+    def down(self) -> NDArray[np.bool_]:
+        """Vehicles in the shop this shift."""
+        return self.vehicle("down_shifts") > 0
+
+    @property
+    def window(self) -> bool:
+        """Whether the coming shift is a scheduled window."""
+        return self.fleet["shifts_to_window"] == 0
+
+
+def read_observation(obs: NDArray[np.floating], n_vehicles: int, k: int) -> FleetObservation:
+    """Read an observation of ``n_vehicles`` with ``k`` values appended per vehicle.
+
+    Raises:
+        ValueError: The observation does not have that size.
+    """
+    o = np.asarray(obs, dtype=np.float64)
+    size = n_vehicles * (N_VF + k) + len(FLEET_FEATURES)
+    if o.shape != (size,):
+        raise ValueError(
+            f"fleet observation: expected {size} values ({n_vehicles} vehicles, {k} appended"
+            f" each), got shape {o.shape}"
+        )
+    n, nf = n_vehicles * N_VF, len(FLEET_FEATURES)
+    fleet = {name: round(float(x)) for name, x in zip(FLEET_FEATURES, o[n : n + nf], strict=True)}
+    return FleetObservation(
+        o[:n].reshape(n_vehicles, N_VF), fleet, o[n + nf :].reshape(n_vehicles, k)
+    )

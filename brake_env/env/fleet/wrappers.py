@@ -1,5 +1,6 @@
-"""Any RUL predictor as an observation wrapper of BrakeWearFleet-v0: each vehicle's estimate
-and interval, all vehicles through the predictor's fleet API in one call per shift."""
+"""RUL observation wrappers of BrakeWearFleet-v0: any predictor's (:class:`FleetRULObservation`:
+each vehicle's estimate and interval, all vehicles through the predictor's fleet API in one
+call per shift) and the oracle's in closed form (:class:`ExpectedRULObservation`)."""
 
 from __future__ import annotations
 
@@ -11,7 +12,7 @@ from gymnasium import spaces
 from numpy.typing import NDArray
 
 from brake_env.env.fleet.pads import ShiftEvents
-from brake_env.env.fleet.routes import UNIFORM, route_wear_model
+from brake_env.env.fleet.routes import HOT, UNIFORM, route_wear_model
 from brake_env.model.streams import SENSOR_CHANNELS
 from brake_env.prognostics.fleet import Fleet, LoopFleet, vectorises
 from brake_env.prognostics.protocol import EventBatch, RULEstimate, RULPredictor
@@ -140,6 +141,54 @@ class FleetRULObservation(
         out = {f: self._est[:, i].copy() for i, f in enumerate(self.fields)}
         out.update((k, v.copy()) for k, v in self._extra.items())
         return out
+
+
+class ExpectedRULObservation(
+    gym.ObservationWrapper[NDArray[np.float32], NDArray[np.int64], NDArray[np.float32]]
+):
+    """The oracle's RUL in closed form: appends, like
+    :class:`FleetRULObservation`, each vehicle's RUL, here the
+    expected events to failure on the hot route from its pad's true volume and K (the
+    atlas's layer wear; :func:`~brake_env.env.fleet.routes.route_wear_model`). It differs
+    from the oracle predictor's RUL (the events the pad will really complete, simulated
+    ahead) only by the law-of-large-numbers noise of the wear to come, and costs nothing
+    to compute (the simulated-ahead oracle makes a 2-vehicle episode ~20x slower). It reads
+    the env's truth: for references and oracle-RUL versions of rules, never deployable.
+
+    Args:
+        env: BrakeWearFleet-v0 (possibly wrapped).
+        fields: Fields to append (all equal: a point estimate).
+    """
+
+    def __init__(
+        self,
+        env: gym.Env[NDArray[np.float32], NDArray[np.int64]],
+        fields: tuple[str, ...] = ("rul_mean",),
+    ) -> None:
+        super().__init__(env)
+        if not fields or any(f not in ESTIMATE_FIELDS for f in fields):
+            raise ValueError(f"ExpectedRULObservation: fields must be among {ESTIMATE_FIELDS}")
+        base = env.observation_space
+        assert isinstance(base, spaces.Box)
+        self.fields = tuple(fields)
+        self.n = int(env.unwrapped.config.n_vehicles)  # type: ignore[attr-defined]
+        self.wear = route_wear_model(env.unwrapped.atlas, HOT)  # type: ignore[attr-defined]
+        k = len(fields) * self.n
+        self.observation_space = spaces.Box(
+            np.concatenate([base.low, np.zeros(k, dtype=np.float32)]),
+            np.concatenate([base.high, np.full(k, _RUL_HIGH, dtype=np.float32)]),
+            dtype=np.float32,
+        )
+
+    def rul(self) -> NDArray[np.float64]:
+        """Each vehicle's expected hot-route RUL now [events]."""
+        truth = self.env.unwrapped.truth()  # type: ignore[attr-defined]
+        v = np.clip(truth["volume_frac"], self.wear.lower_edges[-1], 1.0)
+        return self.wear.rul(v, truth["wear_coeff"])
+
+    def observation(self, observation: NDArray[np.float32]) -> NDArray[np.float32]:
+        est = np.repeat(np.clip(self.rul(), 0.0, _RUL_HIGH), len(self.fields))
+        return np.concatenate([observation, est]).astype(np.float32)
 
 
 def shift_batch(

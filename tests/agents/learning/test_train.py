@@ -14,10 +14,10 @@ from agents.learning.hyperparameters import load_hyperparams
 from agents.learning.train import TrainedAgent, agent_env, train_agent
 from agents.study import outcomes as oc
 from agents.study.pads import PadDraws, collect_pads
-from agents.study.tuning import fit_predictors
 from brake_env.env.config import EnvConfig
 from brake_env.model.regime import WearRegime
 from brake_env.prognostics.protocol import NoPrognostics, Oracle
+from brake_env.prognostics.registry import fit_predictors
 from tests.agents.budgets import FAST, FAST_ENV, TINY
 
 

@@ -10,11 +10,11 @@ from agents.learning.features import AgentFeatures, pad_observations
 from agents.policies.rules import ReplaceOnFailure, RULThreshold
 from agents.study import outcomes as oc
 from agents.study.pads import PadDraws, collect_pads
-from agents.study.tuning import fit_predictors
 from brake_env.env.brake_wear import BrakeWearEnv
 from brake_env.env.config import EnvConfig
 from brake_env.env.wrappers import RULObservation
 from brake_env.model.regime import WearRegime
+from brake_env.prognostics.registry import fit_predictors
 
 FAST = {
     "k_mean": 1e-5,

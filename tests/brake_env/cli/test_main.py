@@ -49,11 +49,11 @@ def test_simulate_same_seed_same_output(tmp_path) -> None:
 
 
 def test_atlas_command_and_demo(tmp_path, monkeypatch) -> None:
-    import agents.commands.cli
+    import agents.fleet.commands.cli
 
     # The fleet stage at a tiny budget (its own test covers it; here: the demo runs it).
     tiny = {"heuristics": ("threshold",), "shifts": 20, "trials": 1, "episodes": 2}
-    monkeypatch.setattr(agents.commands.cli, "DEMO_FLEET", tiny)
+    monkeypatch.setattr(agents.fleet.commands.cli, "DEMO_FLEET", tiny)
     assert main(["atlas", "--out", str(tmp_path / "atlas"), "--quiet"]) == 0
     info = json.loads((tmp_path / "atlas" / "atlas.json").read_text())
     assert info["wear_per_event_ratio_end_fresh"] >= 1.2

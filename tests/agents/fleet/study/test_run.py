@@ -11,12 +11,12 @@ import numpy as np
 import pytest
 from scipy.stats import trim_mean
 
-from agents.commands.fleet_config import FleetStudyConfig, rebuild_rule, rul_env
-from agents.commands.fleet_plots import SHOP, trace_episode
-from agents.commands.fleet_study import run_fleet_study
-from agents.commands.fleet_summary import REFERENCE
-from agents.learning.fleet_agent import FleetTraining
-from agents.study.fleet_costs import iqm, run_episode, seeds_interval
+from agents.fleet.evaluation.costs import iqm, run_episode, seeds_interval
+from agents.fleet.settings import FleetStudyConfig, FleetTraining
+from agents.fleet.study.build import rebuild_rule, rul_env
+from agents.fleet.study.plots import SHOP, trace_episode
+from agents.fleet.study.run import run_fleet_study
+from agents.fleet.study.summary import REFERENCE
 from brake_env.runner import Runner
 from tests.agents.budgets import ARGS
 
@@ -141,30 +141,35 @@ def test_the_episode_trace_matches_the_env_counts(study, atlas):
     assert trace["window"].sum() == TINY.shifts // TINY.fleet.window_period
 
 
-def test_the_cli_names_a_bad_heuristic_and_shows_the_study_s_choices(capsys, tmp_path):
-    import agents.commands.cli as cli
-    from agents.commands import fleet_config
+def test_the_cli_names_a_bad_heuristic_and_the_settings_name_the_tuning_s(capsys, tmp_path):
+    from agents.fleet import settings
+    from agents.fleet.evaluation.tuning import SPACES
     from brake_env.cli.main import main
+    from brake_env.prognostics.registry import predictor_names
 
-    assert main(["fleet-study", "--out", str(tmp_path), "--heuristics", "magic"]) == 2
-    assert "unknown heuristic(s) ['magic']" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as e:
+        main(["fleet-study", "--out", str(tmp_path), "--heuristics", "magic"])
+    assert e.value.code == 2
+    assert "--heuristics: invalid choice: 'magic'" in capsys.readouterr().err
     assert not (tmp_path / "costs.json").exists()
-    # The parser's copies of the names (kept light for --help) are the study's.
-    assert cli.FLEET_SIZES == fleet_config.SIZES
-    assert cli.FLEET_PREDICTORS == fleet_config.FLEET_PREDICTORS
-    assert cli.FLEET_HEURISTICS == fleet_config.FLEET_HEURISTICS
+    # The settings' names (kept apart from the tuning so that --help loads no Optuna) are
+    # the tuning's, and the predictors are the registry's.
+    assert tuple(SPACES) == settings.HEURISTICS
+    assert FleetStudyConfig().predictors == predictor_names()
+    with pytest.raises(ValueError, match="predictors must be among"):
+        FleetStudyConfig(predictors=())
 
 
 def test_the_demo_stage_runs_on_a_tiny_budget(atlas, tmp_path, monkeypatch):
-    import agents.commands.cli
+    import agents.fleet.commands.cli as cli
     from brake_env.cli.demo import DemoContext
 
     tiny = {"heuristics": ("threshold",), "shifts": 20, "trials": 1, "episodes": 2}
-    monkeypatch.setattr(agents.commands.cli, "DEMO_FLEET", tiny)
-    monkeypatch.setattr(agents.commands.cli, "DEMO_PREDICTORS", ("none", "oracle"))
-    monkeypatch.setattr(agents.commands.cli, "DEMO_WORKERS", 0)
+    monkeypatch.setattr(cli, "DEMO_FLEET", tiny)
+    monkeypatch.setattr(cli, "DEMO_PREDICTORS", ("none", "oracle"))
+    monkeypatch.setattr(cli, "DEMO_WORKERS", 0)
     args = argparse.Namespace(**vars(ARGS), n_train=2, k_mean=1e-5, k_std=None, ood_shift_sigma=6.0)
     ctx = DemoContext(args, tmp_path / "demo", tmp_path / "atlas.npz", tmp_path / "data")
-    summary, section = agents.commands.cli.demo_fleet(ctx)
+    summary, section = cli.demo_stage(ctx)
     assert "no agent" in section and "| predictor |" in section
     assert summary["ranking"]["order"] and (tmp_path / "demo" / "fleet" / "costs.json").exists()

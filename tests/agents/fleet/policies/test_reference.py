@@ -1,4 +1,4 @@
-"""The perfect-information reference (agents.policies.fleet_reference): the program's value
+"""The perfect-information reference (agents.fleet.policies.reference): the program's value
 against brute force on tiny cases, and its policy in the env against its prediction."""
 
 from __future__ import annotations
@@ -10,13 +10,13 @@ import itertools
 import numpy as np
 import pytest
 
-from agents.policies.fleet_reference import (
+from agents.fleet.evaluation.costs import run_episodes
+from agents.fleet.policies.reference import (
     ReferenceModel,
     ReferencePolicy,
     joint_choices,
     solve,
 )
-from agents.study.fleet_costs import run_episodes
 from brake_env.env.fleet.config import FleetConfig
 from brake_env.env.fleet.env import BrakeWearFleetEnv
 from brake_env.env.fleet.shop import HOT, MILD, PARK, SERVICE

@@ -47,11 +47,12 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.stats import norm
 
-from agents.policies.fleet import reorder
+from agents.fleet.policies.rules import reorder
 from brake_env.env.fleet.config import FleetConfig
 from brake_env.env.fleet.routes import HOT as HOT_ROUTE
 from brake_env.env.fleet.routes import MILD as MILD_ROUTE
 from brake_env.env.fleet.routes import route_mean, route_wear_model
+from brake_env.env.fleet.rules import fits_capacity, shortfall_cost
 from brake_env.env.fleet.shop import HOT, MILD, PARK, SERVICE
 from brake_env.model.atlas import Atlas
 from brake_env.model.wear import WearModel
@@ -198,13 +199,7 @@ def joint_choices(model: ReferenceModel, window: bool) -> list[tuple[int, ...]]:
 
 def shift_cost(model: ReferenceModel, joint: tuple[int, ...], window: bool) -> float:
     """The shortfall of a joint decision (its fits are priced in :func:`_after_each`)."""
-    if window:
-        return 0.0
-    c = model.config
-    hot, mild = joint.count(HOT), joint.count(MILD)
-    short_hot = max(c.hot_need - hot, 0)
-    short_mild = max(c.mild_need - mild - max(hot - c.hot_need, 0), 0)
-    return c.costs.shortfall * short_hot + c.costs.mild_shortfall * short_mild
+    return shortfall_cost(model.config, joint.count(HOT), joint.count(MILD), window)
 
 
 def q_values(model: ReferenceModel, v_next: NDArray[Any], window: bool) -> NDArray[Any]:
@@ -317,9 +312,7 @@ class ReferencePolicy:
         best, best_q = tuple(PARK for _ in down), np.inf
         for joint in itertools.product(*options):
             fits = np.array([j == SERVICE for j in joint])
-            if fits.sum() > stock or (window and fits.sum() > c.window_slots):
-                continue
-            if not window and (fits & (down == 0)).sum() > bays:
+            if not fits_capacity(c, window, fits, down > 0, stock, bays):
                 continue
             q = self._q(h, down, joint, window, v_next)
             if q < best_q:

@@ -1,7 +1,7 @@
 """Tuning the fleet rules' parameters on tuning episodes (seeds kept apart from evaluation's)
 with Optuna's TPE sampler, seeded, so that a tuning run is repeatable.
 
-Each heuristic of :mod:`agents.policies.fleet` has a search space here (limits in shifts of
+Each heuristic of :mod:`agents.fleet.policies.rules` has a search space here (limits in shifts of
 hot duty). The objective is the mean cost per vehicle-shift over the tuning seeds, every
 trial on the same seeds (common random numbers). Heuristics other than the (s, S) rule and
 the combination keep the default reorder rule (s, S) = (2, 4); the (s, S) heuristic is the
@@ -24,7 +24,8 @@ from typing import Any
 
 import numpy as np
 
-from agents.policies.fleet import (
+from agents.fleet.evaluation.costs import evaluate
+from agents.fleet.policies.rules import (
     FleetRule,
     FleetRuleParams,
     opportunistic_rule,
@@ -32,8 +33,7 @@ from agents.policies.fleet import (
     window_rule,
     with_parts,
 )
-from agents.policies.fleet_view import FleetLayout
-from agents.study.fleet_costs import evaluate
+from agents.fleet.policies.view import FleetLayout
 
 Space = Callable[[Any, FleetLayout, int], FleetRule]  # (trial, layout, window period)
 

@@ -1,4 +1,4 @@
-"""Parameter-shared MaskablePPO on BrakeWearFleet-v0 (agents.learning.fleet_shared): the
+"""Parameter-shared MaskablePPO on BrakeWearFleet-v0 (agents.fleet.learning.shared): the
 per-vehicle adapter against the full env and the PettingZoo view, and a tiny training's
 plumbing (masks, determinism, the cloning warm start), not learning."""
 
@@ -9,20 +9,21 @@ import dataclasses
 import numpy as np
 import pytest
 
-from agents.learning.fleet_agent import FleetTraining, oracle_fleet_env
-from agents.learning.fleet_imitation import IMITATION_SEED0, record
-from agents.learning.fleet_shared import (
+from agents.fleet.evaluation.costs import run_episodes
+from agents.fleet.learning.agent import oracle_fleet_env
+from agents.fleet.learning.imitation import record
+from agents.fleet.learning.shared import (
     SharedFleetVecEnv,
     train_shared_agent,
     vehicle_observations,
     vehicle_samples,
 )
-from agents.policies.fleet import FleetRule, FleetRuleParams, reorder
-from agents.policies.fleet_view import FleetLayout
-from agents.study.fleet_costs import run_episodes
+from agents.fleet.policies.rules import FleetRule, FleetRuleParams, reorder
+from agents.fleet.policies.view import FleetLayout
+from agents.fleet.settings import IMITATION_SEED0, FleetTraining
 from brake_env.env.fleet.shop import SERVICE
 from brake_env.env.fleet.spaces import FLEET_FEATURES, N_VF
-from tests.agents.learning.small_fleet import CFG, agreement
+from tests.agents.fleet.learning.small_fleet import CFG, agreement
 
 pytest.importorskip("sb3_contrib")
 

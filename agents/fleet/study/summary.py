@@ -3,7 +3,7 @@ vehicle-shift, its gap to the perfect-information reference, predictors ranked b
 best policy's cost, and the agents aggregated over training seeds.
 
 Every interval pairs episodes (all policies ran the same evaluation episodes): BCa over
-episodes for two policies (:func:`~agents.study.fleet_costs.paired_interval`). An agent is
+episodes for two policies (:func:`~agents.fleet.evaluation.costs.paired_interval`). An agent is
 a distribution over training seeds: its figure is the interquartile mean (IQM) of the
 seeds' mean costs, as rliable reports it, and its interval comes from a two-level
 bootstrap that resamples the seeds and, paired with the heuristic's, the episodes
@@ -17,15 +17,17 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from agents.commands.fleet_config import ORACLE, FleetStudyConfig, episodes_of
-from agents.commands.fleet_units import best_heuristic
-from agents.study.fleet_costs import (
+from agents.fleet.evaluation.costs import (
     EpisodeCost,
     Interval,
     paired_interval,
     seeds_interval,
     term_means,
 )
+from agents.fleet.settings import FleetStudyConfig
+from agents.fleet.study.build import episodes_of
+from agents.fleet.study.units import best_heuristic
+from brake_env.prognostics.registry import ORACLE
 
 F64 = NDArray[np.float64]
 REFERENCE = "perfect-information reference"

@@ -1,15 +1,16 @@
-"""Fleet costs, paired intervals and tuning (agents.study.fleet_costs, fleet_tuning)."""
+"""Fleet costs, paired intervals and tuning (agents.fleet.evaluation.costs, fleet_tuning)."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from agents.policies.fleet_view import ExpectedRULObservation, FleetLayout
-from agents.study.fleet_costs import paired_interval, run_episode, term_means
-from agents.study.fleet_tuning import SPACES, tune
+from agents.fleet.evaluation.costs import paired_interval, run_episode, term_means
+from agents.fleet.evaluation.tuning import SPACES, tune
+from agents.fleet.policies.view import FleetLayout
 from brake_env.env.fleet.config import FleetConfig
 from brake_env.env.fleet.env import BrakeWearFleetEnv
+from brake_env.env.fleet.wrappers import ExpectedRULObservation
 
 
 def test_paired_interval_difference_and_ratio():

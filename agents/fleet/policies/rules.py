@@ -2,7 +2,7 @@
 
 One rule, :class:`FleetRule`, has a part for each decision, and each heuristic of issue 20 is
 a setting of it (the constructors below), so that their best combination is the same rule
-with every part free. All limits are RUL in shifts of hot duty (:mod:`.fleet_view`).
+with every part free. All limits are RUL in shifts of hot duty (:mod:`.view`).
 
 - **Service** (per vehicle): replace when the RUL is below ``must`` anywhere (an unscheduled
   visit between windows); below ``window_limit`` at a scheduled window (labour and pad
@@ -40,7 +40,8 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from agents.policies.fleet_view import FleetLayout, FleetView
+from agents.fleet.policies.view import FleetLayout, FleetView
+from brake_env.env.fleet.rules import fill_needs, room_for
 from brake_env.env.fleet.shop import HOT, MILD, PARK, SERVICE
 
 I64 = NDArray[np.int64]
@@ -135,10 +136,10 @@ class FleetRule:
         if not self.params.greedy:
             return want, np.zeros_like(want)
         send = np.zeros_like(want)
-        stock, bays, slots = view.stock, view.free_bays, self.layout.window_slots
+        config = self.layout.config
+        stock, bays, slots = view.stock, view.free_bays, config.window_slots
         for v in np.flatnonzero(want)[np.argsort(view.rul[want], kind="stable")]:
-            room = slots > 0 if view.window else (bool(view.down[v]) or bays > 0)
-            if stock > 0 and room:
+            if stock > 0 and room_for(config, view.window, bool(view.down[v]), slots, bays):
                 send[v], stock = True, stock - 1
                 slots -= int(view.window)
                 bays -= int(not (view.window or view.down[v]))
@@ -160,12 +161,9 @@ class FleetRule:
             key = np.where(self._due(view), key - 1e9, key)
         key = np.where(unserved, np.inf, key)
         order = np.flatnonzero(able)[np.argsort(key[able], kind="stable")]
-        hot, mild = self.layout.hot_need, self.layout.hot_need + self.layout.mild_need
         duty[order] = SPARE_DUTIES[self.params.spare_duty]
-        duty[order[hot:mild]] = MILD
-        duty[order[:hot]] = HOT
+        _, drift = fill_needs(self.layout.config, order, duty)
         if self.params.duty == "due-first":  # a due pad covers a drift from the ramp
-            drift = order[hot:mild]
             duty[drift[self._due(view)[drift]]] = HOT
         return duty
 

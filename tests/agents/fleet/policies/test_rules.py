@@ -1,4 +1,4 @@
-"""Fleet rules (agents.policies.fleet): each does what it says on constructed situations,
+"""Fleet rules (agents.fleet.policies.rules): each does what it says on constructed situations,
 and every action respects the env's mask along episodes."""
 
 from __future__ import annotations
@@ -8,7 +8,8 @@ import dataclasses
 import numpy as np
 import pytest
 
-from agents.policies.fleet import (
+from agents.fleet.evaluation.costs import run_episode
+from agents.fleet.policies.rules import (
     FleetRule,
     FleetRuleParams,
     opportunistic_rule,
@@ -17,21 +18,18 @@ from agents.policies.fleet import (
     window_rule,
     with_parts,
 )
-from agents.policies.fleet_view import (
-    ExpectedRULObservation,
-    FleetLayout,
-    FleetView,
-    respects,
-    rul_per_hot_shift,
-)
-from agents.study.fleet_costs import run_episode
+from agents.fleet.policies.view import FleetLayout, FleetView, respects, rul_per_hot_shift
 from brake_env.env.fleet.config import FleetConfig
 from brake_env.env.fleet.env import BrakeWearFleetEnv
 from brake_env.env.fleet.shop import HOT, MILD, PARK, SERVICE
 from brake_env.env.fleet.spaces import FLEET_FEATURES, N_VF, VEHICLE_FEATURES
+from brake_env.env.fleet.wrappers import ExpectedRULObservation
 
 N = 4
-LAYOUT = FleetLayout(n_vehicles=N, hot_need=2, max_order=8, rul_per_shift=400.0)
+# 4 vehicles, 2 needed hot and none mild, a window crew that fits every vehicle.
+LAYOUT = FleetLayout(
+    FleetConfig(n_vehicles=N, hot_need=2, mild_need=0, window_slots=N), rul_per_shift=400.0
+)
 
 
 def observation(
@@ -99,7 +97,8 @@ def test_greedy_serves_lowest_rul_first_within_bays_and_stock():
     a = greedy.predict(observation([8.0, 2.0, 5.0, 50.0], to_window=0, stock=2))[0]
     assert (a[:N] == SERVICE).tolist() == [False, True, True, False]
     # ... and the window's crew: one slot, the lowest RUL only
-    crew = FleetRule(dataclasses.replace(LAYOUT, window_slots=1), greedy.params)
+    one_slot = dataclasses.replace(LAYOUT.config, window_slots=1)
+    crew = FleetRule(dataclasses.replace(LAYOUT, config=one_slot), greedy.params)
     a = crew.predict(observation([8.0, 2.0, 5.0, 50.0], to_window=0, stock=2))[0]
     assert (a[:N] == SERVICE).tolist() == [False, True, False, False]
 
@@ -122,7 +121,7 @@ def test_duty_rule_sends_the_lowest_rul_to_the_spare_duty():
     # due-first: a pad replaced at the next window anyway (RUL there < 12, > must = 1)
     # takes the ramp first, and a due pad on the mild need goes up the ramp too
     due = FleetRule(
-        dataclasses.replace(LAYOUT, mild_need=2),
+        dataclasses.replace(LAYOUT, config=dataclasses.replace(LAYOUT.config, mild_need=2)),
         FleetRuleParams(must=1.0, window_limit=12.0, duty="due-first", spare_duty="park"),
     )
     a = due.predict(observation([30.0, 80.0, 9.0, 14.0], to_window=5))[0]
@@ -132,7 +131,10 @@ def test_duty_rule_sends_the_lowest_rul_to_the_spare_duty():
     a = due.predict(observation([30.0, 80.0, 5.0, 60.0], to_window=5))[0]
     assert a[:N].tolist() == [MILD, HOT, MILD, HOT]  # 5 would be at 0 < must: not due
     # a mild need is filled after the hot need, healthiest first; the least RUL is spare
-    need = FleetRule(dataclasses.replace(LAYOUT, mild_need=1), parked.params)
+    need = FleetRule(
+        dataclasses.replace(LAYOUT, config=dataclasses.replace(LAYOUT.config, mild_need=1)),
+        parked.params,
+    )
     assert need.predict(observation([30.0, 80.0, 5.0, 60.0]))[0][:N].tolist() == [
         MILD, HOT, PARK, HOT,
     ]  # fmt: skip
@@ -153,10 +155,10 @@ def test_bad_parameters_and_observations_raise_clearly():
         FleetRuleParams(s=3, S=2)
     with pytest.raises(ValueError, match="duty"):
         FleetRuleParams(duty="random")  # type: ignore[arg-type]
-    with pytest.raises(ValueError, match="observation must have"):
+    with pytest.raises(ValueError, match="fleet rule: fleet observation: expected"):
         threshold_rule(LAYOUT, 1.0).predict(np.zeros(7, dtype=np.float32))
     with pytest.raises(ValueError, match="rul_field"):
-        FleetLayout(2, 1, 8, fields=("rul_mean",), rul_field="rul_lower")
+        FleetLayout(FleetConfig(), fields=("rul_mean",), rul_field="rul_lower")
 
 
 @pytest.fixture(scope="module")

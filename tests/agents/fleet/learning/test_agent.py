@@ -1,4 +1,4 @@
-"""MaskablePPO on BrakeWearFleet-v0 (agents.learning.fleet_agent): tiny budgets, a smoke
+"""MaskablePPO on BrakeWearFleet-v0 (agents.fleet.learning.agent): tiny budgets, a smoke
 test of the plumbing (masks, normalisation, determinism, the behaviour-cloning warm start),
 not of learning."""
 
@@ -9,18 +9,18 @@ import dataclasses
 import numpy as np
 import pytest
 
-from agents.learning.fleet_agent import (
-    FleetTraining,
+from agents.fleet.evaluation.costs import run_episode
+from agents.fleet.learning.agent import (
     ReorderBy,
     oracle_fleet_env,
     train_fleet_agent,
 )
-from agents.learning.fleet_imitation import IMITATION_SEED0, record
-from agents.policies.fleet import FleetRule, FleetRuleParams
-from agents.policies.fleet_view import FleetLayout
-from agents.study.fleet_costs import run_episode
+from agents.fleet.learning.imitation import record
+from agents.fleet.policies.rules import FleetRule, FleetRuleParams
+from agents.fleet.policies.view import FleetLayout
+from agents.fleet.settings import IMITATION_SEED0, FleetTraining
 from brake_env.env.fleet.shop import HOT, SERVICE
-from tests.agents.learning.small_fleet import CFG, agreement
+from tests.agents.fleet.learning.small_fleet import CFG, agreement
 
 pytest.importorskip("sb3_contrib")
 

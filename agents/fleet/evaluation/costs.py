@@ -22,7 +22,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.stats import DegenerateDataWarning, bootstrap, trim_mean
 
-from agents.policies.fleet_view import respects
+from agents.fleet.policies.view import respects
 from brake_env.env.fleet.config import COST_TERMS
 
 F64 = NDArray[np.float64]

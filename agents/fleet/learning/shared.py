@@ -10,7 +10,7 @@ A vehicle sees the parallel env's view (its own ``VEHICLE_FEATURES``, then the
 ``FLEET_FEATURES``) with its RUL field(s) between the two, chooses its duty
 (``Discrete(4)``) under its slice of the env's mask, and gets the fleet's reward (one bill:
 the game is cooperative). The parallel env's ``store`` agent is replaced by a fixed (s, S)
-rule (:func:`agents.policies.fleet.reorder`, as :class:`~.fleet_agent.ReorderBy`): the one
+rule (:func:`agents.fleet.policies.rules.reorder`, as :class:`~.fleet_agent.ReorderBy`): the one
 shared decision has no vehicle to own it, and a second policy would need a second learner.
 What the vehicles ask jointly (two services, one bay; more services than spares) is
 settled by the env's deferral rule (:mod:`brake_env.env.fleet.shop`), as in the parallel
@@ -24,9 +24,9 @@ ranking (FleetRule's ``duty="rul"``). ``agent_indicator`` (SuperSuit's
 be learnt.
 
 :class:`SharedFleetAgent` has SB3's ``predict`` on the FULL fleet observation (splits it per
-vehicle, rebuilds each vehicle's mask with :meth:`~agents.policies.fleet_view.FleetView.mask`
+vehicle, rebuilds each vehicle's mask with :meth:`~agents.fleet.policies.view.FleetView.mask`
 and appends the (s, S) order), so it runs wherever the fleet rules and :class:`FleetAgent`
-run (``agents.study.fleet_costs.run_episodes``).
+run (``agents.fleet.evaluation.costs.run_episodes``).
 """
 
 from __future__ import annotations
@@ -44,10 +44,10 @@ from stable_baselines3.common.env_util import is_wrapped
 from stable_baselines3.common.vec_env import VecEnv
 from stable_baselines3.common.vec_env.base_vec_env import VecEnvIndices, VecEnvStepReturn
 
-from agents.learning.fleet_agent import FleetTraining, FrozenAgent
-from agents.learning.fleet_imitation import Demonstrations, Imitation, clone
-from agents.policies.fleet import reorder
-from agents.policies.fleet_view import FleetLayout, FleetView
+from agents.fleet.learning.agent import FleetTraining, FrozenAgent
+from agents.fleet.learning.imitation import Demonstrations, Imitation, clone
+from agents.fleet.policies.rules import reorder
+from agents.fleet.policies.view import FleetLayout, FleetView
 from brake_env.env.fleet.shop import SERVICE
 from brake_env.env.fleet.spaces import FLEET_FEATURES, N_VF
 
@@ -332,7 +332,7 @@ def train_shared_agent(
     running spread. ``settings.reorder`` is not used (the order is (s, S)). With
     ``settings.imitation_episodes`` > 0 the policy is first cloned from ``teacher``'s
     duties, vehicle by vehicle, with DAgger rounds (as the central agent's warm start,
-    :func:`~agents.learning.fleet_imitation.clone`); a vehicle sees only itself, so a
+    :func:`~agents.fleet.learning.imitation.clone`); a vehicle sees only itself, so a
     teacher that ranks the vehicles can be cloned only as far as a vehicle's own state
     tells its rank. Copy i's episodes start from seed ``settings.seed + i``.
     """

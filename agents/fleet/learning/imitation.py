@@ -1,5 +1,5 @@
 """Behaviour cloning for the fleet's MaskablePPO (the warm start of
-:func:`~agents.learning.fleet_agent.train_fleet_agent`): a random initial policy sends
+:func:`~agents.fleet.learning.agent.train_fleet_agent`): a random initial policy sends
 vehicles to service far too often and PPO spends its budget unlearning it, so the policy
 is first fitted to a heuristic teacher's actions on the training envs (:func:`imitate`),
 optionally with DAgger rounds in which the clone drives and the teacher labels its states.
@@ -10,18 +10,13 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, replace
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import gymnasium as gym
 import numpy as np
 from numpy.typing import NDArray
 
-if TYPE_CHECKING:
-    from agents.learning.fleet_agent import FleetTraining
-
-IMITATION_SEED0 = 1_000_000
-"""The teacher's episode seeds: ``IMITATION_SEED0 * (settings.seed + 1) + k`` for episode k,
-apart from the evaluation (0..), tuning (10,000..) and curve (20,000..) seeds."""
+from agents.fleet.settings import IMITATION_SEED0, FleetTraining
 
 
 @dataclass(frozen=True)
@@ -205,7 +200,7 @@ def clone(
 ) -> Imitation:  # fmt: skip
     """Clone ``teacher`` into ``model``'s policy: its episodes on the training envs
     (``venv.venv.envs``), then ``imitation_rounds`` DAgger rounds (see
-    :func:`~agents.learning.fleet_agent.train_fleet_agent`).
+    :func:`~agents.fleet.learning.agent.train_fleet_agent`).
 
     The parameter-shared agent (:mod:`.fleet_shared`) records on fleet envs but learns
     from vehicles: ``samples`` turns fleet shifts into the policy's samples, ``actor_for(env)``

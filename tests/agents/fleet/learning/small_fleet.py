@@ -7,7 +7,7 @@ from typing import Any
 
 import numpy as np
 
-from agents.learning.fleet_agent import oracle_fleet_env
+from agents.fleet.learning.agent import oracle_fleet_env
 from brake_env.env.fleet.config import SMALL_FLEET, FleetConfig
 
 CFG = FleetConfig(**SMALL_FLEET, episode_shifts=20, events_per_shift=100)

@@ -1,24 +1,25 @@
 """``brakewear fleet-study``: every policy x predictor on BrakeWearFleet-v0 on the same
-evaluation episodes (issue 21; README "The fleet study").
+evaluation episodes (docs/results/fleet.md, "The fleet study").
 
-Runs the units (:mod:`agents.commands.fleet_units`), summarises them
-(:mod:`agents.commands.fleet_summary`) into ``costs.json``, prints the tables, and draws the
+Runs the units (:mod:`agents.fleet.study.units`), summarises them
+(:mod:`agents.fleet.study.summary`) into ``costs.json``, prints the tables, and draws the
 figures: one evaluation episode of the twin's (or the first agent predictor's) best
 policy, the agents' learning curves and the cost by term.
 """
 
 from __future__ import annotations
 
-import argparse
 import time
 from pathlib import Path
 from typing import Any
 
-from agents.commands.fleet_config import FleetStudyConfig, episodes_of, rebuild_rule, rul_env
-from agents.commands.fleet_summary import REFERENCE, summarise
-from agents.commands.fleet_units import run_units
+from agents.fleet.settings import FleetStudyConfig
+from agents.fleet.study.build import episodes_of, rebuild_rule, rul_env
+from agents.fleet.study.summary import REFERENCE, summarise
+from agents.fleet.study.units import fit_unit, run_units
 from brake_env.model.atlas import Atlas
 from brake_env.output import table, write_json
+from brake_env.prognostics.registry import ORACLE
 from brake_env.runner import Runner
 
 
@@ -47,7 +48,7 @@ def _figures(
     config: FleetStudyConfig, atlas: Atlas, units: dict[str, Any], summary: dict[str, Any],
     out: Path,
 ) -> list[Path]:  # fmt: skip
-    from agents.commands.fleet_plots import plot_curves, plot_episode, plot_terms, trace_episode
+    from agents.fleet.study.plots import plot_curves, plot_episode, plot_terms, trace_episode
 
     figures = [plot_terms(summary["terms"], out / "figures" / "cost_by_term.png")]
     if summary["agents"]:
@@ -55,9 +56,7 @@ def _figures(
     p = "twin" if "twin" in config.predictors else config.predictors[0]
     h = summary["best_heuristic"][p]
     fitted = None
-    if p != "oracle":
-        from agents.commands.fleet_units import fit_unit
-
+    if p != ORACLE:
         fitted = fit_unit(p, atlas, config.seed, config.n_train_runs)
     env = rul_env(config, atlas, p, fitted)
     rule = rebuild_rule(config, h, units[config.heuristic_key(p, h)]["params"])
@@ -131,38 +130,4 @@ def _ivs(d: dict[str, float] | None, digits: int = 3) -> str:
     return f"{d['point']:.{digits}f} [{d['low']:.{digits}f}, {d['high']:.{digits}f}]"
 
 
-# ---------------------------------------------------------------------- CLI
-def config_from_args(args: argparse.Namespace) -> FleetStudyConfig:
-    from agents.learning.fleet_agent import FleetTraining
-
-    training = FleetTraining(
-        timesteps=args.timesteps, normalize_reward=True, imitation_episodes=args.imitate,
-        imitation_epochs=30, imitation_rounds=args.dagger, learning_rate=args.learning_rate,
-        ent_coef=args.ent_coef,
-    )  # fmt: skip
-    return FleetStudyConfig(
-        size=args.size, shifts=args.shifts, predictors=args.predictors,
-        heuristics=tuple(args.heuristics), trials=args.trials, trials_best=args.trials_best,
-        tune_episodes=args.tune_episodes, eval_episodes=args.eval_episodes,
-        n_train_runs=args.n_train_runs, agent_predictors=args.agents,
-        agent_seeds=args.agent_seeds, shared_seeds=args.shared_seeds, training=training,
-        curve_every=args.curve_every, seed=args.seed,
-    )  # fmt: skip
-
-
-def study_and_report(
-    config: FleetStudyConfig, atlas: Atlas, out: Path, runner: Runner, quiet: bool = False,
-    resume: bool = True,
-) -> dict[str, Any]:  # fmt: skip
-    from tqdm import tqdm
-
-    def progress(label: str, total: int) -> Any:
-        return tqdm(total=total, desc=label, unit="unit", disable=quiet)
-
-    summary = run_fleet_study(config, atlas, out, runner, progress=progress, resume=resume)
-    print(report(summary))
-    print(f"wrote {out / 'costs.json'}, " + ", ".join(summary["figures"]))
-    return summary
-
-
-__all__ = ["REFERENCE", "config_from_args", "report", "run_fleet_study", "study_and_report"]
+__all__ = ["REFERENCE", "report", "run_fleet_study"]

@@ -9,7 +9,7 @@ Units, each a module-level function of its arguments alone:
 - :func:`heuristic_unit`: one heuristic tuned with Optuna on the tuning episodes with one
   predictor's RUL, then run on the evaluation episodes;
 - :func:`reference_unit`: the perfect-information reference (the exact program of
-  :mod:`agents.policies.fleet_reference`, small fleet only) on the evaluation episodes;
+  :mod:`agents.fleet.policies.reference`, small fleet only) on the evaluation episodes;
 - :func:`agent_unit`: MaskablePPO trained with one predictor's RUL from one training seed
   (learning curve on separate episodes), then run on the evaluation episodes.
 
@@ -31,20 +31,14 @@ from typing import Any
 
 import numpy as np
 
-from agents.commands.fleet_config import (
-    ORACLE,
-    TRAIN_SEED0,
-    FleetStudyConfig,
-    episodes_dict,
-    layout,
-    rebuild_rule,
-    rul_env,
-)
-from agents.study.fleet_costs import run_episodes
-from agents.study.fleet_tuning import tune
+from agents.fleet.evaluation.costs import run_episodes
+from agents.fleet.evaluation.tuning import tune
+from agents.fleet.settings import TRAIN_SEED0, FleetStudyConfig
+from agents.fleet.study.build import episodes_dict, layout, rebuild_rule, rul_env
 from brake_env.model.atlas import Atlas
 from brake_env.model.regime import WearRegime
 from brake_env.prognostics.protocol import Predictor
+from brake_env.prognostics.registry import ORACLE, fit_predictors
 from brake_env.runner import Later, Runner, Unit
 from brake_env.units import open_store
 
@@ -172,7 +166,7 @@ def study_graph(config: FleetStudyConfig, runner: Runner, atlas: Any) -> list[Un
 def _spares(config: FleetStudyConfig, results: dict[str, Any], best: str | None) -> tuple[int, int]:
     """The reference's reorder rule: the oracle's best heuristic's (s, S) (the rules' default
     when the oracle is not in the study)."""
-    from agents.policies.fleet import FleetRuleParams
+    from agents.fleet.policies.rules import FleetRuleParams
 
     if best is None:
         p = FleetRuleParams()
@@ -183,8 +177,6 @@ def _spares(config: FleetStudyConfig, results: dict[str, Any], best: str | None)
 
 def fit_unit(name: str, atlas: Atlas, seed: int, n_train_runs: int) -> Predictor:
     """``name`` fitted on ``n_train_runs`` simulated run-to-failure pads (study's K)."""
-    from agents.study.tuning import fit_predictors
-
     fitted, _ = fit_predictors((name,), atlas, seed, n_train_runs, WearRegime())
     return fitted[name]
 
@@ -211,7 +203,7 @@ def heuristic_unit(
 
 def reference_unit(config: FleetStudyConfig, atlas: Atlas, s: int, S: int) -> dict[str, Any]:
     """The perfect-information reference on the evaluation episodes, spares by (s, S)."""
-    from agents.policies.fleet_reference import ReferenceModel, ReferencePolicy, solve
+    from agents.fleet.policies.reference import ReferenceModel, ReferencePolicy, solve
 
     t0 = time.perf_counter()
     env = rul_env(config, atlas, ORACLE, None)
@@ -232,7 +224,7 @@ class AgentRun:
         seed: Training seed (its episodes from 30,000 + 100 seed).
         kind: ``central``: one policy decides the fleet, warm-started by cloning the
             teacher when ``training.imitation_episodes`` > 0; ``shared``: one policy shared
-            by the vehicles (:mod:`agents.learning.fleet_shared`), cloned from the teacher's
+            by the vehicles (:mod:`agents.fleet.learning.shared`), cloned from the teacher's
             duties likewise, spares by the teacher's (s, S).
         teacher: The predictor's best tuned heuristic: (name, parameters).
     """
@@ -262,8 +254,8 @@ def _agent(
     config: FleetStudyConfig, atlas: Atlas, fitted: Predictor | None, run: AgentRun
 ) -> dict[str, Any]:
     predictor, seed, kind, teacher = run.predictor, run.seed, run.kind, run.teacher
-    from agents.learning.fleet_agent import FleetAgent, train_fleet_agent
-    from agents.learning.fleet_shared import SharedFleetAgent, train_shared_agent
+    from agents.fleet.learning.agent import FleetAgent, train_fleet_agent
+    from agents.fleet.learning.shared import SharedFleetAgent, train_shared_agent
 
     t0 = time.perf_counter()
     settings = replace(config.training, seed=TRAIN_SEED0 + 100 * seed)

@@ -2,21 +2,21 @@
 every vehicle's duty and the reorder each shift, with the env's action mask.
 
 The agent sees the fleet observation with a RUL appended per vehicle (the closed-form
-oracle's, :class:`~agents.policies.fleet_view.ExpectedRULObservation`, or any predictor's
+oracle's, :class:`~brake_env.env.fleet.wrappers.ExpectedRULObservation`, or any predictor's
 through :class:`~brake_env.env.fleet.wrappers.FleetRULObservation`), normalised by running
 statistics frozen at the end of training (SB3's ``VecNormalize``). Rewards are scaled by
 ``reward_scale`` (a shift costs tens to thousands; PPO's value loss wants O(1)). Nothing is
 simulated ahead: the env runs with ``truth=False`` unless the RUL wrapper needs it.
 
 :class:`FleetAgent` has SB3's ``predict`` and rebuilds the mask from the observation
-(:meth:`~agents.policies.fleet_view.FleetView.mask`), so it runs wherever the fleet rules
-run (``agents.study.fleet_costs.run_episodes``) and is compared with them on the same
+(:meth:`~agents.fleet.policies.view.FleetView.mask`), so it runs wherever the fleet rules
+run (``agents.fleet.evaluation.costs.run_episodes``) and is compared with them on the same
 episodes.
 
 A warm start by behaviour cloning (``teacher`` of :func:`train_fleet_agent`, e.g. a tuned
-:class:`~agents.policies.fleet.FleetRule`): a random initial policy sends vehicles to
+:class:`~agents.fleet.policies.rules.FleetRule`): a random initial policy sends vehicles to
 service far too often and PPO spends its budget unlearning it, so the policy can first be
-fitted to a heuristic's actions (:mod:`agents.learning.fleet_imitation`), then
+fitted to a heuristic's actions (:mod:`agents.fleet.learning.imitation`), then
 fine-tuned by PPO.
 """
 
@@ -24,100 +24,23 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
 from typing import Any
 
 import gymnasium as gym
 import numpy as np
 from numpy.typing import NDArray
 
-from agents.learning.fleet_imitation import IMITATION_SEED0, Imitation, clone
-from agents.policies.fleet import reorder
-from agents.policies.fleet_view import ExpectedRULObservation, FleetLayout, FleetView
+from agents.fleet.learning.imitation import Imitation, clone
+from agents.fleet.policies.rules import reorder
+from agents.fleet.policies.view import FleetLayout, FleetView
+from agents.fleet.settings import FleetTraining
 from brake_env.env.fleet.config import FleetConfig
 from brake_env.env.fleet.env import BrakeWearFleetEnv
 from brake_env.env.fleet.shop import SERVICE
+from brake_env.env.fleet.wrappers import ExpectedRULObservation
 from brake_env.model.atlas import Atlas
 
 F32 = NDArray[np.float32]
-
-
-@dataclass(frozen=True)
-class FleetTraining:
-    """MaskablePPO settings (SB3's defaults unless said; not tuned on evaluation episodes).
-
-    Attributes:
-        timesteps: Shifts of experience in total (all envs).
-        n_envs: Parallel envs (DummyVecEnv).
-        seed: Seed of the model, the envs' episode seeds and the normalisation.
-        learning_rate, n_steps, batch_size, n_epochs, ent_coef, clip_range: PPO's.
-        gamma: Discount per shift: 0.995 looks ~200 shifts ahead, a pad's life on the ramp
-            (a replacement's consequences reach that far).
-        reward_scale: Rewards times this during training.
-        net_arch: Hidden layers of the policy and value networks.
-        normalize_reward: Scale rewards by a running estimate of the return's spread
-            (SB3's ``VecNormalize(norm_reward=True)``), on top of ``reward_scale``.
-        reorder: (s, S) to reorder spares by rule (the agent then decides duties only;
-            :class:`ReorderBy`), or None for the agent to choose the order quantity too.
-        imitation_episodes: Episodes of the teacher recorded for the warm start (needs a
-            ``teacher``; 0: none). ``timesteps`` may then be 0 (the cloned policy alone).
-        imitation_epochs: Passes of behaviour cloning over the teacher's data.
-        imitation_lr: Adam's learning rate for the cloning (minibatches of ``batch_size``).
-        imitation_value: Also fit the value head to the discounted returns of the recorded
-            episodes (so that PPO's first advantages are not those of a random critic).
-        imitation_rounds: DAgger rounds after the teacher's episodes: the clone drives
-            ``imitation_episodes`` more episodes, the teacher labels its states, and the
-            policy is refitted on all the data (the clone's own mistakes lead to states
-            the teacher never visits, e.g. a pad near failure).
-    """
-
-    timesteps: int = 200_000
-    n_envs: int = 4
-    seed: int = 0
-    learning_rate: float = 3e-4
-    n_steps: int = 512
-    batch_size: int = 256
-    n_epochs: int = 10
-    ent_coef: float = 0.01
-    gamma: float = 0.995
-    reward_scale: float = 1e-3
-    net_arch: tuple[int, ...] = (128, 128)
-    normalize_reward: bool = False
-    reorder: tuple[int, int] | None = None
-    clip_range: float = 0.2
-    imitation_episodes: int = 0
-    imitation_epochs: int = 20
-    imitation_lr: float = 1e-3
-    imitation_value: bool = True
-    imitation_rounds: int = 0
-
-    def __post_init__(self) -> None:
-        for name in ("n_envs", "n_steps", "batch_size", "n_epochs", "imitation_epochs"):
-            if int(getattr(self, name)) < 1:
-                raise ValueError(f"FleetTraining: {name} must be >= 1, got {getattr(self, name)}")
-        if self.imitation_rounds < 0 or self.imitation_episodes < 0:
-            raise ValueError(f"FleetTraining: imitation_episodes and imitation_rounds must be"
-                             f" >= 0, got {self.imitation_episodes}"
-                             f" and {self.imitation_rounds}")  # fmt: skip
-        if self.imitation_episodes * (self.imitation_rounds + 1) >= IMITATION_SEED0:
-            raise ValueError(f"FleetTraining: imitation_episodes x (imitation_rounds + 1) must"
-                             f" be < {IMITATION_SEED0}")  # fmt: skip
-        if self.timesteps < (0 if self.imitation_episodes else 1):
-            raise ValueError(f"FleetTraining: timesteps must be >= 1 (>= 0 with"
-                             f" imitation_episodes), got {self.timesteps}")  # fmt: skip
-        if self.seed < 0:
-            raise ValueError(f"FleetTraining: seed must be >= 0, got {self.seed}")
-        for name in ("clip_range", "imitation_lr", "learning_rate"):
-            if not float(getattr(self, name)) > 0:
-                raise ValueError(f"FleetTraining: {name} must be > 0, got {getattr(self, name)}")
-        if not 0.0 < self.gamma <= 1.0:
-            raise ValueError(f"FleetTraining: gamma must be in (0, 1], got {self.gamma}")
-        if self.reorder is not None and not 0 <= self.reorder[0] <= self.reorder[1]:
-            raise ValueError(
-                f"FleetTraining: reorder must be (s, S), 0 <= s <= S, got {self.reorder}"
-            )
-        if not self.reward_scale > 0:
-            raise ValueError(f"FleetTraining: reward_scale must be > 0, got {self.reward_scale}")
 
 
 def oracle_fleet_env(config: FleetConfig, atlas: Atlas | None = None) -> gym.Env[Any, Any]:
@@ -128,7 +51,7 @@ def oracle_fleet_env(config: FleetConfig, atlas: Atlas | None = None) -> gym.Env
 
 class ReorderBy(gym.ActionWrapper[Any, NDArray[np.int64], NDArray[np.int64]]):
     """The agent decides duties only; spares are reordered by (s, S) on the inventory
-    position after this shift's service requests (:func:`agents.policies.fleet.reorder`).
+    position after this shift's service requests (:func:`agents.fleet.policies.rules.reorder`).
 
     Args:
         env: BrakeWearFleet-v0 (possibly wrapped).
@@ -233,10 +156,10 @@ def train_fleet_agent(
 
     With ``settings.imitation_episodes`` > 0 the policy is first cloned from ``teacher``
     (SB3's ``predict`` on the unnormalised observation, e.g. a tuned
-    :class:`~agents.policies.fleet.FleetRule`): its episodes are recorded on the training
+    :class:`~agents.fleet.policies.rules.FleetRule`): its episodes are recorded on the training
     copies (seeds :data:`IMITATION_SEED0` * (seed + 1) + k, round robin over the copies),
     the observation statistics are updated with them, and the policy is fitted to them
-    (:mod:`~agents.learning.fleet_imitation`); each of ``imitation_rounds`` DAgger rounds
+    (:mod:`~agents.fleet.learning.imitation`); each of ``imitation_rounds`` DAgger rounds
     then records as many episodes driven by the clone, labelled by the teacher, and refits
     on all the data; then PPO fine-tunes for ``settings.timesteps`` (none if 0). The
     agent's ``imitation`` says how the cloning went.

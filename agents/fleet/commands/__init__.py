@@ -1,0 +1,1 @@
+"""The fleet's ``brakewear`` command: its parser (light) and its implementation."""

@@ -1,0 +1,60 @@
+"""``brakewear fleet-study`` as a plug-in of the parser. Light on purpose: the command is
+named by its function's path (``"module:function"``), imported only when it runs
+(:func:`brake_env.cli.main.main`), so building the parser loads no study (scipy, Optuna,
+torch)."""
+
+from __future__ import annotations
+
+import argparse
+from typing import Any
+
+from agents.fleet.settings import DEFAULT_HEURISTICS, HEURISTICS, SIZES
+from brake_env.cli.common import add_common_args, add_runner_args, int_at_least, predictor_list
+from brake_env.prognostics.registry import predictor_names
+
+
+def register(sub: argparse._SubParsersAction[Any]) -> None:
+    """Add ``fleet-study`` to the ``brakewear`` parser."""
+    fmt = argparse.ArgumentDefaultsHelpFormatter
+    f = sub.add_parser(
+        "fleet-study",
+        formatter_class=fmt,
+        help="every policy x predictor on BrakeWearFleet-v0: heuristics tuned, the reference,"
+        " MaskablePPO over training seeds, on the same evaluation episodes",
+    )
+    add_common_args(f, "out/fleet-study")
+    f.add_argument("--size", choices=SIZES, default="small", help="small: 2 vehicles (reference)")
+    f.add_argument("--shifts", type=int_at_least(2), default=365, help="an episode")
+    f.add_argument(
+        "--predictors", type=predictor_list, default=predictor_names(), help="comma-separated"
+    )
+    f.add_argument(
+        "--heuristics", nargs="+", choices=HEURISTICS, default=DEFAULT_HEURISTICS, metavar="NAME",
+        help="heuristics to tune, each quoted",
+    )  # fmt: skip
+    f.add_argument("--trials", type=int_at_least(1), default=15, help="Optuna, per heuristic")
+    f.add_argument("--trials-best", type=int_at_least(1), default=45, help="the combination's")
+    f.add_argument("--tune-episodes", type=int_at_least(1), default=3)
+    f.add_argument("--eval-episodes", type=int_at_least(2), default=40)
+    f.add_argument("--n-train-runs", type=int_at_least(1), default=10, help="pads to fit on")
+    f.add_argument("--agents", type=predictor_list, default=(), help="predictors given MaskablePPO")
+    f.add_argument(
+        "--agent-seeds", type=int_at_least(0), default=10,
+        help="training seeds of MaskablePPO (one policy for the fleet) per agent",
+    )  # fmt: skip
+    f.add_argument(
+        "--shared-seeds", type=int_at_least(0), default=0,
+        help="training seeds of the parameter-shared PPO (one policy per vehicle) per agent",
+    )  # fmt: skip
+    f.add_argument("--timesteps", type=int_at_least(1), default=20_000, help="PPO, per agent")
+    f.add_argument("--dagger", type=int_at_least(0), default=1, help="DAgger rounds of cloning")
+    f.add_argument("--learning-rate", type=float, default=1e-4, help="PPO's, after cloning")
+    f.add_argument("--ent-coef", type=float, default=0.0, help="PPO's entropy coefficient")
+    f.add_argument(
+        "--imitate", type=int_at_least(0), default=20,
+        help="episodes of the predictor's best heuristic each agent clones before PPO (0: none)",
+    )  # fmt: skip
+    f.add_argument("--curve-every", type=int_at_least(1), default=10_000, help="shifts")
+    add_runner_args(f, workers=2)
+    f.add_argument("--atlas", default=None, help="atlas .npz instead of the cache")
+    f.set_defaults(func="agents.fleet.commands.cli:cmd_fleet_study")

@@ -1,0 +1,1 @@
+"""Fleet policies evaluated on common episodes with paired intervals, and tuned."""

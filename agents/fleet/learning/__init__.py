@@ -1,0 +1,1 @@
+"""Learning fleet policies: behaviour cloning, MaskablePPO, parameter-shared PPO."""

@@ -1,0 +1,241 @@
+"""The fleet study's settings, at the bottom of ``agents.fleet`` (every other module imports
+them, they import nothing of the package): :class:`FleetTraining` (an agent's training),
+:class:`FleetStudyConfig` (what ``brakewear fleet-study`` runs) and the episode seeds.
+
+Episode seeds: evaluation 0..E-1, tuning from 10,000, learning curves from 20,000, agent
+training from 30,000 + 100 x seed, the teachers' episodes of behaviour cloning from
+``IMITATION_SEED0 * (seed + 1)``; none overlaps another. Predictors come from the registry
+(:mod:`brake_env.prognostics.registry`), heuristics by the names of
+:data:`agents.fleet.evaluation.tuning.SPACES` (``HEURISTICS`` here, tested equal).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from dataclasses import asdict, dataclass, field
+from typing import Any, Literal
+
+from brake_env.env.fleet.config import SMALL_FLEET, FleetConfig
+from brake_env.prognostics.registry import predictor_names
+
+TUNE_SEED0, CURVE_SEED0, TRAIN_SEED0 = 10_000, 20_000, 30_000
+IMITATION_SEED0 = 1_000_000
+"""The teacher's episode seeds: ``IMITATION_SEED0 * (settings.seed + 1) + k`` for episode k,
+apart from the evaluation (0..), tuning (10,000..) and curve (20,000..) seeds."""
+SIZES = ("small", "default")
+# The heuristics of agents.fleet.evaluation.tuning.SPACES, in its order (tested equal), so
+# that the settings and the parser need not import the tuning (Optuna, scipy).
+HEURISTICS = ("threshold", "time-to-window", "(n, N)", "capacity greedy", "duty rule",
+              "(s, S)", "standby", "best combination")  # fmt: skip
+DEFAULT_HEURISTICS = ("threshold", "(n, N)", "best combination")
+
+
+@dataclass(frozen=True)
+class FleetTraining:
+    """MaskablePPO settings (SB3's defaults unless said; not tuned on evaluation episodes).
+
+    Attributes:
+        timesteps: Shifts of experience in total (all envs).
+        n_envs: Parallel envs (DummyVecEnv).
+        seed: Seed of the model, the envs' episode seeds and the normalisation.
+        learning_rate, n_steps, batch_size, n_epochs, ent_coef, clip_range: PPO's.
+        gamma: Discount per shift: 0.995 looks ~200 shifts ahead, a pad's life on the ramp
+            (a replacement's consequences reach that far).
+        reward_scale: Rewards times this during training.
+        net_arch: Hidden layers of the policy and value networks.
+        normalize_reward: Scale rewards by a running estimate of the return's spread
+            (SB3's ``VecNormalize(norm_reward=True)``), on top of ``reward_scale``.
+        reorder: (s, S) to reorder spares by rule (the agent then decides duties only;
+            :class:`ReorderBy`), or None for the agent to choose the order quantity too.
+        imitation_episodes: Episodes of the teacher recorded for the warm start (needs a
+            ``teacher``; 0: none). ``timesteps`` may then be 0 (the cloned policy alone).
+        imitation_epochs: Passes of behaviour cloning over the teacher's data.
+        imitation_lr: Adam's learning rate for the cloning (minibatches of ``batch_size``).
+        imitation_value: Also fit the value head to the discounted returns of the recorded
+            episodes (so that PPO's first advantages are not those of a random critic).
+        imitation_rounds: DAgger rounds after the teacher's episodes: the clone drives
+            ``imitation_episodes`` more episodes, the teacher labels its states, and the
+            policy is refitted on all the data (the clone's own mistakes lead to states
+            the teacher never visits, e.g. a pad near failure).
+    """
+
+    timesteps: int = 200_000
+    n_envs: int = 4
+    seed: int = 0
+    learning_rate: float = 3e-4
+    n_steps: int = 512
+    batch_size: int = 256
+    n_epochs: int = 10
+    ent_coef: float = 0.01
+    gamma: float = 0.995
+    reward_scale: float = 1e-3
+    net_arch: tuple[int, ...] = (128, 128)
+    normalize_reward: bool = False
+    reorder: tuple[int, int] | None = None
+    clip_range: float = 0.2
+    imitation_episodes: int = 0
+    imitation_epochs: int = 20
+    imitation_lr: float = 1e-3
+    imitation_value: bool = True
+    imitation_rounds: int = 0
+
+    def __post_init__(self) -> None:
+        for name in ("n_envs", "n_steps", "batch_size", "n_epochs", "imitation_epochs"):
+            if int(getattr(self, name)) < 1:
+                raise ValueError(f"FleetTraining: {name} must be >= 1, got {getattr(self, name)}")
+        if self.imitation_rounds < 0 or self.imitation_episodes < 0:
+            raise ValueError(f"FleetTraining: imitation_episodes and imitation_rounds must be"
+                             f" >= 0, got {self.imitation_episodes}"
+                             f" and {self.imitation_rounds}")  # fmt: skip
+        if self.imitation_episodes * (self.imitation_rounds + 1) >= IMITATION_SEED0:
+            raise ValueError(f"FleetTraining: imitation_episodes x (imitation_rounds + 1) must"
+                             f" be < {IMITATION_SEED0}")  # fmt: skip
+        if self.timesteps < (0 if self.imitation_episodes else 1):
+            raise ValueError(f"FleetTraining: timesteps must be >= 1 (>= 0 with"
+                             f" imitation_episodes), got {self.timesteps}")  # fmt: skip
+        if self.seed < 0:
+            raise ValueError(f"FleetTraining: seed must be >= 0, got {self.seed}")
+        for name in ("clip_range", "imitation_lr", "learning_rate"):
+            if not float(getattr(self, name)) > 0:
+                raise ValueError(f"FleetTraining: {name} must be > 0, got {getattr(self, name)}")
+        if not 0.0 < self.gamma <= 1.0:
+            raise ValueError(f"FleetTraining: gamma must be in (0, 1], got {self.gamma}")
+        if self.reorder is not None and not 0 <= self.reorder[0] <= self.reorder[1]:
+            raise ValueError(
+                f"FleetTraining: reorder must be (s, S), 0 <= s <= S, got {self.reorder}"
+            )
+        if not self.reward_scale > 0:
+            raise ValueError(f"FleetTraining: reward_scale must be > 0, got {self.reward_scale}")
+
+
+@dataclass(frozen=True)
+class FleetStudyConfig:
+    """What the fleet study runs.
+
+    Attributes:
+        size: ``small`` (SMALL_FLEET: 2 vehicles, the reference's size) or ``default``
+            (the env's 12 vehicles; no reference).
+        shifts: Shifts an episode.
+        predictors: Predictors whose RUL the heuristics (and agents) act on (names of the
+            registry, :func:`~brake_env.prognostics.registry.predictor_names`; all by default).
+        heuristics: Heuristics tuned per predictor (:data:`HEURISTICS`).
+        trials: Optuna trials per heuristic; ``trials_best`` for the best combination
+            (8 parameters, not 1-3).
+        tune_episodes: Tuning episodes (seeds from 10,000).
+        eval_episodes: Evaluation episodes (seeds 0..), the same for every policy.
+        n_train_runs: Run-to-failure pads the predictors are fitted on.
+        agent_predictors: Predictors given a MaskablePPO agent.
+        agent_seeds: Training seeds per agent predictor.
+        shared_seeds: Training seeds of the parameter-shared PPO (one policy per vehicle,
+            :mod:`agents.fleet.learning.shared`; spares by the teacher's (s, S)) per agent
+            predictor; 0: none.
+        training: The agents' settings (its ``seed`` is replaced by each training seed);
+            with ``imitation_episodes`` > 0 each agent starts by cloning its predictor's
+            best tuned heuristic (behaviour cloning, then PPO).
+        curve_episodes, curve_every: The learning curve: cost on that many episodes
+            (seeds from 20,000) every ``curve_every`` shifts of training.
+        tail: Shifts beyond the episode the reference's program looks ahead.
+        seed: Seed of the predictors' fits and of the tuning samplers.
+    """
+
+    size: Literal["small", "default"] = "small"
+    shifts: int = 365
+    predictors: tuple[str, ...] = field(default_factory=predictor_names)
+    heuristics: tuple[str, ...] = DEFAULT_HEURISTICS
+    trials: int = 15
+    trials_best: int = 45
+    tune_episodes: int = 3
+    eval_episodes: int = 40
+    n_train_runs: int = 10
+    agent_predictors: tuple[str, ...] = ()
+    agent_seeds: int = 10
+    shared_seeds: int = 0
+    training: FleetTraining = field(default_factory=FleetTraining)
+    curve_episodes: int = 2
+    curve_every: int = 20_000
+    tail: int = 200
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        if self.size not in SIZES:
+            raise ValueError(f"FleetStudyConfig: size must be one of {SIZES}, got {self.size!r}")
+        bad = [h for h in self.heuristics if h not in HEURISTICS]
+        if bad or not self.heuristics:
+            raise ValueError(
+                f"FleetStudyConfig: unknown heuristic(s) {bad}; known {list(HEURISTICS)}"
+            )
+        known = predictor_names()
+        bad = [p for p in self.predictors if p not in known]
+        if bad or not self.predictors:
+            raise ValueError(
+                f"FleetStudyConfig: predictors must be among {list(known)},"
+                f" got {list(self.predictors)}"
+            )
+        missing = [p for p in self.agent_predictors if p not in self.predictors]
+        if missing:
+            raise ValueError(
+                f"FleetStudyConfig: agent predictor(s) {missing} are not among the predictors"
+                f" {self.predictors} (an agent is compared with its predictor's heuristics)"
+            )
+        for name in ("shifts", "trials", "trials_best", "tune_episodes", "n_train_runs",
+                     "curve_episodes", "curve_every"):  # fmt: skip
+            if int(getattr(self, name)) < 1:
+                raise ValueError(
+                    f"FleetStudyConfig: {name} must be >= 1, got {getattr(self, name)}"
+                )
+        if min(self.agent_seeds, self.shared_seeds) < 0:
+            raise ValueError(f"FleetStudyConfig: agent_seeds and shared_seeds must be >= 0, got"
+                             f" {self.agent_seeds} and {self.shared_seeds}")  # fmt: skip
+        if self.eval_episodes < 2:
+            raise ValueError(
+                f"FleetStudyConfig: eval_episodes must be >= 2 (paired intervals),"
+                f" got {self.eval_episodes}"
+            )
+
+    @property
+    def fleet(self) -> FleetConfig:
+        small: dict[str, Any] = dict(SMALL_FLEET) if self.size == "small" else {}
+        return FleetConfig(**small, episode_shifts=self.shifts, truth=False)
+
+    @property
+    def has_reference(self) -> bool:
+        return self.size == "small"
+
+    def eval_seeds(self) -> list[int]:
+        return list(range(self.eval_episodes))
+
+    def tune_seeds(self) -> list[int]:
+        return list(range(TUNE_SEED0, TUNE_SEED0 + self.tune_episodes))
+
+    def curve_seeds(self) -> list[int]:
+        return list(range(CURVE_SEED0, CURVE_SEED0 + self.curve_episodes))
+
+    def settings(self) -> dict[str, Any]:
+        """What every unit's result depends on (the unit store refuses other settings);
+        each unit's own parameters are in its key."""
+        return {"size": self.size, "shifts": self.shifts, "eval_episodes": self.eval_episodes,
+                "tune_episodes": self.tune_episodes, "n_train_runs": self.n_train_runs,
+                "seed": self.seed}  # fmt: skip
+
+    def trials_of(self, heuristic: str) -> int:
+        return self.trials_best if heuristic == "best combination" else self.trials
+
+    def heuristic_key(self, predictor: str, heuristic: str) -> str:
+        return f"heuristic-{predictor}-{heuristic}-t{self.trials_of(heuristic)}"
+
+    def agent_runs(self) -> list[tuple[str, str, int]]:
+        """(kind, predictor, seed) of every agent: ``central`` then ``shared``."""
+        return [(kind, p, s) for kind, n in (("central", self.agent_seeds),
+                                             ("shared", self.shared_seeds))
+                for p in self.agent_predictors for s in range(n)]  # fmt: skip
+
+    def reference_key(self) -> str:
+        return f"reference-tail{self.tail}"
+
+    def agent_key(self, predictor: str, seed: int, kind: str = "central") -> str:
+        spec = {"training": asdict(self.training),
+                "curve": [self.curve_episodes, self.curve_every]}  # fmt: skip
+        digest = hashlib.sha256(json.dumps(spec, sort_keys=True).encode()).hexdigest()[:10]
+        prefix = "agent" if kind == "central" else f"agent-{kind}"
+        return f"{prefix}-{predictor}-seed{seed}-{digest}"

@@ -1,0 +1,1 @@
+"""``brakewear fleet-study``: its units on the runner, summary, figures and run."""

@@ -1,0 +1,72 @@
+"""What a fleet-study unit builds from the settings: the env a policy acts on
+(:func:`rul_env`), the rules' layout, a tuned heuristic from its parameters, and episode costs
+as unit results and back.
+
+The env runs with ``truth=False`` (nothing simulated ahead). The oracle's RUL is the
+closed-form expected RUL on the hot route from the pad's true volume and K
+(:class:`~brake_env.env.fleet.wrappers.ExpectedRULObservation`), which the simulated-ahead
+oracle predictor matches up to the noise of the wear to come, at ~20x the cost.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from agents.fleet.evaluation.costs import EpisodeCost
+from agents.fleet.evaluation.tuning import SPACES
+from agents.fleet.policies.view import FleetLayout
+from agents.fleet.settings import FleetStudyConfig
+from brake_env.env.fleet.env import BrakeWearFleetEnv
+from brake_env.env.fleet.wrappers import ExpectedRULObservation, FleetRULObservation
+from brake_env.model.atlas import Atlas
+from brake_env.prognostics.protocol import Predictor
+from brake_env.prognostics.registry import ORACLE
+
+
+def rul_env(
+    config: FleetStudyConfig, atlas: Atlas, predictor: str, fitted: Predictor | None
+) -> Any:
+    """The fleet env with ``predictor``'s RUL appended (``rul_mean`` per vehicle)."""
+    env = BrakeWearFleetEnv(config.fleet, atlas=atlas)
+    if predictor == ORACLE:
+        return ExpectedRULObservation(env)
+    assert fitted is not None, f"predictor {predictor!r} needs a fitted predictor"
+    return FleetRULObservation(env, fitted, fields=("rul_mean",))
+
+
+def layout(config: FleetStudyConfig) -> FleetLayout:
+    return FleetLayout.of(config.fleet)
+
+
+def episodes_dict(eps: list[EpisodeCost]) -> dict[str, Any]:
+    """Episode costs as a unit result (arrays; :func:`episodes_of` reads them back)."""
+    terms, counts = list(eps[0].terms), sorted({k for e in eps for k in e.counts})
+    return {
+        "seed": np.array([e.seed for e in eps]),
+        "vehicles": eps[0].vehicles,
+        "shifts": np.array([e.shifts for e in eps]),
+        "pad_price": eps[0].pad_price,
+        "terms": {t: np.array([e.terms[t] for e in eps]) for t in terms},
+        "counts": {c: np.array([e.counts.get(c, 0.0) for e in eps], dtype=float) for c in counts},
+    }
+
+
+def episodes_of(d: dict[str, Any]) -> list[EpisodeCost]:
+    """:func:`episodes_dict` read back."""
+    n = len(d["seed"])
+    return [
+        EpisodeCost(int(d["seed"][i]), int(d["vehicles"]), int(d["shifts"][i]),
+                    {t: float(v[i]) for t, v in d["terms"].items()},
+                    {c: float(v[i]) for c, v in d["counts"].items()}, float(d["pad_price"]))
+        for i in range(n)
+    ]  # fmt: skip
+
+
+def rebuild_rule(config: FleetStudyConfig, heuristic: str, params: dict[str, Any]) -> Any:
+    """A tuned heuristic from its parameters (as :func:`heuristic_unit` saved them)."""
+    import optuna  # the fleet extra, imported where used (as in tuning.tune)
+
+    w = config.fleet.window_period
+    return SPACES[heuristic](optuna.trial.FixedTrial(params), layout(config), w)

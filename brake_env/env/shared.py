@@ -1,0 +1,79 @@
+"""What every env of the package shares (BrakeWear-v0, BrakeWearFleet-v0, and a third one
+would too): the checks of their configs' common fields, ``gym.make`` keyword arguments
+turned into a validated config, the render mode and the atlas an env runs on."""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+from collections.abc import Mapping
+from typing import Any, TypeVar
+
+import numpy as np
+
+from brake_env._validate import check_keywords, from_dict
+from brake_env.model.atlas import Atlas, AtlasSpec, cached_atlas
+from brake_env.model.params import BrakeModel
+
+C = TypeVar("C")
+
+
+def check_int_fields(env_id: str, config: object, spec: tuple[tuple[str, int, int], ...]) -> None:
+    """Each ``(name, lowest, highest)`` of ``spec`` is an int (Python or numpy) in range."""
+    for name, lo, hi in spec:
+        v = getattr(config, name)
+        if isinstance(v, bool) or not isinstance(v, int | np.integer) or not lo <= v <= hi:
+            raise ValueError(f"{env_id}: {name} must be an int in [{lo}, {hi}], got {v!r}")
+
+
+def check_choice(
+    env_id: str, name: str, value: Any, choices: Mapping[str, Any] | tuple[str, ...]
+) -> None:
+    if value not in choices:
+        raise ValueError(f"{env_id}: {name} must be one of {list(choices)}, got {value!r}")
+
+
+def check_types(env_id: str, config: object, kinds: Mapping[str, type]) -> None:
+    """Each named field is an instance of its type (``bool`` fields: a real bool)."""
+    for name, kind in kinds.items():
+        v = getattr(config, name)
+        if not isinstance(v, kind):
+            extra = "" if kind is bool else " or a dict of its fields"
+            error = ValueError if kind is bool else TypeError
+            raise error(f"{env_id}: {name} must be {kind.__name__}{extra}, got {v!r}")
+
+
+def config_from_kwargs(
+    env_id: str, cls: type[C], base: C | None, kwargs: dict[str, Any], nested: Mapping[str, type]
+) -> C:
+    """``base`` (the default config if None) with ``kwargs`` replaced, all validated: an
+    unknown keyword is named; a ``nested`` field may come as a dict of its fields."""
+    check_keywords(env_id, kwargs, (f.name for f in dataclasses.fields(cls)))  # type: ignore[arg-type]
+    for name, kind in nested.items():
+        if isinstance(kwargs.get(name), dict):
+            kwargs[name] = from_dict(kind, kwargs[name])
+    return dataclasses.replace(base or cls(), **kwargs)  # type: ignore[type-var]
+
+
+def check_render_mode(env_id: str, render_mode: str | None, modes: list[str]) -> None:
+    if render_mode not in (None, *modes):
+        shown = ", ".join(repr(m) for m in modes)
+        raise ValueError(f"{env_id}: render_mode must be None, {shown}, got {render_mode!r}")
+
+
+_ATLASES: dict[tuple[str, str | None], Atlas] = {}
+
+
+def default_atlas(preset: str = "hot-duty", cache_dir: str | None = None) -> Atlas:
+    """The preset's atlas from the on-disk cache (built once, ~1 s), shared in the process."""
+    key = (preset, cache_dir or os.environ.get("BRAKEWEAR_CACHE_DIR"))
+    if key not in _ATLASES:
+        _ATLASES[key] = cached_atlas(AtlasSpec(model=BrakeModel.preset(preset)), cache_dir)
+    return _ATLASES[key]
+
+
+def env_atlas(atlas: Atlas | str | os.PathLike[str] | None, preset: str) -> Atlas:
+    """The atlas an env runs on: given, loaded from a saved ``.npz``, or the preset's."""
+    if atlas is None:
+        return default_atlas(preset)
+    return atlas if isinstance(atlas, Atlas) else Atlas.load(atlas)
