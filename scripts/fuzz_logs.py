@@ -1,5 +1,5 @@
-"""Malformed event logs from a seeded generator, each with what it means (README "Event-log
-schema"): the reader must either load it with that meaning or raise one EventLogError naming
+"""Malformed event logs from a seeded generator, each with what it means (docs/schema.md):
+the reader must either load it with that meaning or raise one EventLogError naming
 the file and, where a cell is at fault, its column and row.
 
 Used by ``scripts/fuzz_reader.py`` (which prints the counts) and

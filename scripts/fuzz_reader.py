@@ -1,5 +1,5 @@
-"""Counts of the event-log reader's outcomes on generated malformed logs (README
-"Event-log schema"), by format and by mutation: the figures behind the fuzz test.
+"""Counts of the event-log reader's outcomes on generated malformed logs
+(docs/schema.md), by format and by mutation: the figures behind the fuzz test.
 
     .venv/bin/python scripts/fuzz_reader.py [--cases 1000] [--seed 0]
 

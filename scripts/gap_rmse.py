@@ -1,5 +1,5 @@
 """The twin's RUL RMSE on the paper's ID and OOD runs with events dropped at random, against
-the full logs (issue 22; README "Gaps in a log").
+the full logs (issue 22; docs/results/prognostics.md, "Gaps in a log").
 
     .venv/bin/python scripts/gap_rmse.py [--seed 0] [--drops 0.01,0.1,0.5] [--trials 1]
 

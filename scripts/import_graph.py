@@ -1,6 +1,6 @@
 """The project's import graph, read from the source (no import runs): which module imports
 which, at module level or inside a function (``TYPE_CHECKING`` blocks left out: they never
-run); for tests/test_architecture.py and the before/after counts of README "Architecture".
+run); for tests/test_architecture.py and the counts in docs/architecture.md.
 
     .venv/bin/python scripts/import_graph.py [ROOT] [PREFIX]
 

@@ -1,6 +1,5 @@
 """Kill ``brakewear simulate``, ``evaluate`` and ``predict`` at random points and show that
-nothing later trusts a partial file (README "Event-log schema": nothing lost, nothing
-half-written).
+nothing later trusts a partial file (docs/schema.md: nothing lost, nothing half-written).
 
     .venv/bin/python scripts/kill_test.py [--kills 30] [--seed 0] [--work DIR]
 

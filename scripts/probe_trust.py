@@ -1,5 +1,5 @@
 """Bad inputs a careful user tries, across fit, predict, evaluate, diagnose, saved models,
-unit stores and the env, and how each ends (issue 22; README "What is checked").
+unit stores and the env, and how each ends (issue 22; docs/schema.md, "Probe of bad inputs").
 
     .venv/bin/python scripts/probe_trust.py [--seed 0] [--verbose]
 

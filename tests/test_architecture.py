@@ -1,4 +1,4 @@
-"""The layout rules of README "Architecture": imports flow one way, heavy libraries only
+"""The layout rules of docs/architecture.md: imports flow one way, heavy libraries only
 where used, short functions and modules."""
 
 from __future__ import annotations
@@ -41,7 +41,7 @@ def imported_packages(package: str) -> dict[str, set[str]]:
 )
 def test_imports_flow_one_way(package: str, forbidden: set[str]) -> None:
     bad = {f: sorted(n & forbidden) for f, n in imported_packages(package).items() if n & forbidden}
-    assert not bad, f"{package} imports what README 'Architecture' forbids: {bad}"
+    assert not bad, f"{package} imports what docs/architecture.md forbids: {bad}"
 
 
 def test_torch_only_in_the_mlp_and_the_agents() -> None:

@@ -57,7 +57,7 @@ def test_wear_model_against_the_physics(atlas: Atlas) -> None:
         model,
     )
     h20 = float(hardness_mpa(20.0, model.hardness))
-    assert 140 < h20 < 160  # README "The model": 152 MPa at 20 C
+    assert 140 < h20 < 160  # docs/model.md: 152 MPa at 20 C
     mc = model.brake.normal_force_n * 1e-6 * r.sliding_dist_m.mean() / h20
     assert PhysicsPredictor(atlas).wear_per_k_m3 == pytest.approx(mc, rel=0.02)
 

@@ -1,4 +1,4 @@
-"""sim2real's rooms (README "Architecture"): effects <- diagnosis <- validation <- commands,
+"""sim2real's rooms (docs/architecture.md): effects <- diagnosis <- validation <- commands,
 each group importing only the groups before it; imports at module level except matplotlib;
 no function with more than six positional parameters; no argparse below the commands."""
 

@@ -1,4 +1,4 @@
-"""The event-log reader against generated malformed logs (README "Event-log schema").
+"""The event-log reader against generated malformed logs (docs/schema.md).
 
 Each of 240 logs (half CSV, half Parquet; ``scripts/fuzz_logs.py``) either loads with the meaning
 it was written with, or raises one EventLogError naming the file and, where one cell is at

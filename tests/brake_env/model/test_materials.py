@@ -22,7 +22,7 @@ def test_friction_matches_hand_computation(t: float) -> None:
 
 
 def test_friction_values_quoted_in_design() -> None:
-    # README "The model": 0.435 at 20 C, peak 0.486 at 250 C, 0.38 at 600 C, 0.29 at 800 C.
+    # docs/model.md: 0.435 at 20 C, peak 0.486 at 250 C, 0.38 at 600 C, 0.29 at 800 C.
     np.testing.assert_allclose(
         friction([20, 250, 600, 800]), [0.435, 0.486, 0.38, 0.29], atol=0.006
     )

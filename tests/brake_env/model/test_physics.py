@@ -131,7 +131,7 @@ def test_wear_accelerates_towards_end_of_life_monte_carlo() -> None:
 
 
 def test_cold_start_preset_shows_why_the_default_is_hot(atlas) -> None:
-    # README "The model": with cold starts mu*H rises with temperature, so wear per event falls.
+    # docs/model.md: with cold starts mu*H rises with temperature, so wear per event falls.
     from brake_env.model.atlas import Atlas, AtlasSpec
 
     cold = Atlas.build(
