@@ -3,9 +3,13 @@ which, at module level or inside a function (``TYPE_CHECKING`` blocks left out: 
 run); for tests/test_architecture.py and the counts in docs/architecture.md.
 
     .venv/bin/python scripts/import_graph.py [ROOT] [PREFIX]
+    .venv/bin/python scripts/import_graph.py --counts [--write]
 
 prints the circles and each import inside a function by its reason, for the modules whose
 name starts with PREFIX (default: all five packages) of the checkout at ROOT (default: here).
+``--counts`` prints the table of docs/architecture.md (modules and lines per package and
+room, circles, imports inside functions by reason); ``--write`` puts it there between the
+GENERATED markers (tests/test_architecture.py checks that the page holds today's table).
 """
 
 from __future__ import annotations
@@ -210,7 +214,57 @@ def main(argv: list[str]) -> None:
             print("   ", i)
 
 
+DOC = ROOT / "docs" / "architecture.md"
+BEGIN = "<!-- BEGIN GENERATED: scripts/import_graph.py (do not edit by hand) -->"
+END = "<!-- END GENERATED: scripts/import_graph.py -->"
+
+
+def _rooms(root: Path) -> list[str]:
+    """The packages and their sub-packages (a folder with an ``__init__.py``), in order."""
+    out = []
+    for pkg in PACKAGES:
+        out.append(pkg)
+        subs = sorted(p.parent for p in (root / pkg).rglob("__init__.py") if p.parent != root / pkg)
+        out += [str(s.relative_to(root)).replace("/", ".") for s in subs]
+    return out
+
+
+def counts(root: Path = ROOT) -> str:
+    """The Markdown table of docs/architecture.md: each room's modules (its own files, not
+    its sub-packages') and lines, then the graph's circles and inner imports by reason."""
+    mods = graph(root)
+    rows = ["| package | modules | lines |", "|---|---:|---:|"]
+    for room in _rooms(root):
+        files = sorted((root / room.replace(".", "/")).glob("*.py"))
+        lines = sum(f.read_text().count("\n") for f in files)
+        rows.append(f"| `{room}` | {len(files)} | {lines:,} |")
+    reasons = inner_imports_by_reason(mods)
+    rows += [
+        "",
+        f"Import circles (imports inside functions counted): {len(cycles(mods))}. Imports"
+        " inside functions: " + ", ".join(f"{len(v)} {k}" for k, v in reasons.items()) + ".",
+    ]
+    return "\n".join(rows)
+
+
+def write_counts(doc: Path = DOC, root: Path = ROOT) -> None:
+    text = doc.read_text()
+    head, _, rest = text.partition(BEGIN)
+    _, _, tail = rest.partition(END)
+    doc.write_text(f"{head}{BEGIN}\n{counts(root)}\n{END}{tail}")
+
+
+def documented_counts(doc: Path = DOC) -> str:
+    """The table as the page holds it."""
+    return doc.read_text().partition(BEGIN)[2].partition(END)[0].strip("\n")
+
+
 if __name__ == "__main__":
     import sys
 
-    main(sys.argv[1:])
+    if sys.argv[1:2] == ["--counts"]:
+        if sys.argv[2:3] == ["--write"]:
+            write_counts()
+        print(counts())
+    else:
+        main(sys.argv[1:])

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from scripts.import_graph import cycles, graph, inner_imports_by_reason
+from scripts.import_graph import counts, cycles, documented_counts, graph, inner_imports_by_reason
 
 ROOT = Path(__file__).resolve().parents[1]
 DOWNSTREAM = {"twin", "baselines", "agents", "sim2real"}
@@ -180,3 +180,12 @@ def test_no_function_takes_more_than_six_positional_parameters() -> None:
                 if n > MAX_POSITIONAL:
                     long.append(f"{path.relative_to(ROOT)}:{node.name} ({n})")
     assert not long, f"functions with more than {MAX_POSITIONAL} positional parameters: {long}"
+
+
+def test_the_architecture_page_holds_today_s_counts() -> None:
+    """docs/architecture.md's table of rooms, modules, lines and inner imports is the
+    script's output, not typed by hand."""
+    assert documented_counts() == counts(), (
+        "docs/architecture.md is out of date: run"
+        " `.venv/bin/python scripts/import_graph.py --counts --write`"
+    )

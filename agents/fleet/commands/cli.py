@@ -67,9 +67,11 @@ DEMO_FLEET: dict[str, Any] = {
 
 def config_from_args(args: argparse.Namespace) -> FleetStudyConfig:
     training = FleetTraining(
-        timesteps=args.timesteps, normalize_reward=True, imitation_episodes=args.imitate,
-        imitation_epochs=30, imitation_rounds=args.dagger, learning_rate=args.learning_rate,
-        ent_coef=args.ent_coef,
+        timesteps=args.timesteps, n_envs=args.n_envs, normalize_reward=not args.raw_reward,
+        imitation_episodes=args.imitate, imitation_epochs=args.imitation_epochs,
+        imitation_lr=args.imitation_lr, imitation_rounds=args.dagger,
+        learning_rate=args.learning_rate, ent_coef=args.ent_coef, clip_range=args.clip_range,
+        reorder=None if args.reorder is None else (args.reorder[0], args.reorder[1]),
     )  # fmt: skip
     return FleetStudyConfig(
         size=args.size, shifts=args.shifts, predictors=args.predictors,
@@ -77,7 +79,8 @@ def config_from_args(args: argparse.Namespace) -> FleetStudyConfig:
         tune_episodes=args.tune_episodes, eval_episodes=args.eval_episodes,
         n_train_runs=args.n_train_runs, agent_predictors=args.agents,
         agent_seeds=args.agent_seeds, shared_seeds=args.shared_seeds, training=training,
-        curve_every=args.curve_every, seed=args.seed,
+        curve_episodes=args.curve_episodes, curve_every=args.curve_every, tail=args.tail,
+        seed=args.seed,
     )  # fmt: skip
 
 

@@ -54,7 +54,28 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
         "--imitate", type=int_at_least(0), default=20,
         help="episodes of the predictor's best heuristic each agent clones before PPO (0: none)",
     )  # fmt: skip
+    f.add_argument(
+        "--imitation-epochs", type=int_at_least(1), default=30, help="passes of the cloning"
+    )
+    f.add_argument("--imitation-lr", type=float, default=1e-3, help="Adam's, for the cloning")
+    f.add_argument("--n-envs", type=int_at_least(1), default=4, help="PPO's parallel envs")
+    f.add_argument("--clip-range", type=float, default=0.2, help="PPO's")
+    f.add_argument(
+        "--raw-reward", action="store_true",
+        help="no running normalisation of the rewards (VecNormalize's norm_reward)",
+    )  # fmt: skip
+    f.add_argument(
+        "--reorder", type=int_at_least(0), nargs=2, metavar=("s", "S"), default=None,
+        help="spares by this (s, S) rule: the agents decide duties only",
+    )  # fmt: skip
     f.add_argument("--curve-every", type=int_at_least(1), default=10_000, help="shifts")
+    f.add_argument(
+        "--curve-episodes", type=int_at_least(1), default=2, help="episodes of each curve point"
+    )
+    f.add_argument(
+        "--tail", type=int_at_least(0), default=200,
+        help="shifts past the episode the reference plans for",
+    )  # fmt: skip
     add_runner_args(f, workers=2)
     f.add_argument("--atlas", default=None, help="atlas .npz instead of the cache")
     f.set_defaults(func="agents.fleet.commands.cli:cmd_fleet_study")

@@ -51,6 +51,8 @@ def summarise(
     rows = []
     if ref is not None:
         rows.append(_row(ORACLE, REFERENCE, ref, None, None))
+        if "predicted" in units[ref_key]:
+            rows[-1]["episodes"]["predicted"] = np.asarray(units[ref_key]["predicted"]).tolist()
     for (p, h), e in eps.items():
         u = units[config.heuristic_key(p, h)]
         rows.append(_row(p, h, e, ref, u["tuning_cost"], params=u["params"]))
@@ -99,6 +101,10 @@ def _row(
         row[k] = float(np.mean([e.counts.get(k, 0.0) for e in eps]))
     if params is not None:
         row["params"] = params
+    # Per evaluation episode (the same seeds for every row): what a reader needs to pair
+    # any two policies (benchmarks/fleet_room.py).
+    row["episodes"] = {"seed": [e.seed for e in eps], "cost": x.tolist(),
+                       "model_terms": [e.model_terms for e in eps]}  # fmt: skip
     return row
 
 

@@ -173,3 +173,35 @@ def test_the_demo_stage_runs_on_a_tiny_budget(atlas, tmp_path, monkeypatch):
     summary, section = cli.demo_stage(ctx)
     assert "no agent" in section and "| predictor |" in section
     assert summary["ranking"]["order"] and (tmp_path / "demo" / "fleet" / "costs.json").exists()
+
+
+def test_fleet_room_reads_the_study_s_episodes(study):
+    """benchmarks/fleet_room.py pairs the rows' episodes itself: its gaps equal the study's,
+    and the reference's forecast is there to check against its realised cost."""
+    import importlib.util
+    from pathlib import Path
+
+    from agents.fleet.evaluation.costs import paired_interval
+
+    script = Path(__file__).resolve().parents[4] / "benchmarks" / "fleet_room.py"
+    spec = importlib.util.spec_from_file_location("fleet_room", script)
+    assert spec is not None and spec.loader is not None
+    room = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(room)
+    out, _ = study
+    s = json.loads((out / "costs.json").read_text())
+    rows = room.room_rows(s, "oracle")
+    assert [r["policy"] for r in rows] == [REFERENCE, "threshold", "(n, N)"]
+    ref = next(r for r in s["rows"] if r["policy"] == REFERENCE)["episodes"]
+    assert len(ref["predicted"]) == len(ref["cost"]) == TINY.eval_episodes
+    for line in rows[1:]:
+        row = next(
+            r for r in s["rows"] if (r["predictor"], r["policy"]) == ("oracle", line["policy"])
+        )
+        x, r = np.array(row["episodes"]["cost"]), np.array(ref["cost"])
+        assert row["cost"] == pytest.approx(x.mean())
+        assert line["gap to ref"] == str(paired_interval(x, r, "difference"))
+        assert row["ratio_to_reference"]["point"] == pytest.approx(x.mean() / r.mean())
+    text = "\n".join(room.room(s, "oracle"))
+    assert "Room to decide" in text and "realised - predicted" in text
+    assert "reference" in room.terms_table(s, "oracle", markdown=True)
