@@ -18,12 +18,16 @@ from agents.commands.units import AgentJob
 from agents.learning.hyperparameters import ALGOS, hyperparams_file, load_hyperparams, rl_zoo_file
 from agents.study.config import StudyConfig
 from brake_env.cli.common import (
+    NONNEGATIVE,
+    POSITIVE,
     add_common_args,
     add_runner_args,
     add_wear_args,
     int_at_least,
     load_atlas,
     make_runner,
+    name_list,
+    nonempty,
     wear_regime,
 )
 from brake_env.env.config import REGIMES, EnvConfig
@@ -36,14 +40,8 @@ if TYPE_CHECKING:
     from brake_env.model.atlas import Atlas
 
 
-def _names(text: str) -> tuple[str, ...]:
-    out = tuple(x.strip() for x in text.split(",") if x.strip())
-    bad = [x for x in out if x not in predictor_names()]
-    if bad:
-        raise argparse.ArgumentTypeError(
-            f"unknown predictor(s) {bad}; valid are {predictor_names()}"
-        )
-    return out
+_names = name_list(predictor_names)  # at least one
+_agents = name_list(predictor_names, allow_empty=True)  # '' for no agent
 
 
 def _env_args(sp: argparse.ArgumentParser) -> None:
@@ -289,7 +287,10 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
     c.add_argument("--algo", choices=ALGOS, default="ppo")
     c.add_argument("--predictors", type=_names, default=predictor_names(), help="comma-separated")
     c.add_argument(
-        "--agents", type=_names, default=("twin", "oracle"), help="predictors given an agent"
+        "--agents",
+        type=_agents,
+        default=("twin", "oracle"),
+        help="predictors given an agent ('': none)",
     )
     c.add_argument("--n-train-runs", type=int_at_least(1), default=10, help="pads to fit on")
     c.add_argument("--tune-pads", type=int_at_least(1), default=100, help="per wear label")
@@ -324,7 +325,7 @@ def _register_fleet_study(sub: argparse._SubParsersAction[Any], fmt: Any) -> Non
     f.add_argument("--shifts", type=int_at_least(2), default=365, help="an episode")
     f.add_argument("--predictors", type=_names, default=FLEET_PREDICTORS, help="comma-separated")
     f.add_argument(
-        "--heuristics", nargs="+", default=FLEET_HEURISTICS, metavar="NAME",
+        "--heuristics", nargs="+", type=nonempty, default=FLEET_HEURISTICS, metavar="NAME",
         help="heuristics to tune, each quoted (agents.study.fleet_tuning.SPACES: threshold,"
         " time-to-window, '(n, N)', capacity greedy, duty rule, '(s, S)', standby, best"
         " combination)",
@@ -334,7 +335,7 @@ def _register_fleet_study(sub: argparse._SubParsersAction[Any], fmt: Any) -> Non
     f.add_argument("--tune-episodes", type=int_at_least(1), default=3)
     f.add_argument("--eval-episodes", type=int_at_least(2), default=40)
     f.add_argument("--n-train-runs", type=int_at_least(1), default=10, help="pads to fit on")
-    f.add_argument("--agents", type=_names, default=(), help="predictors given MaskablePPO")
+    f.add_argument("--agents", type=_agents, default=(), help="predictors given MaskablePPO")
     f.add_argument(
         "--agent-seeds", type=int_at_least(0), default=10,
         help="training seeds of MaskablePPO (one policy for the fleet) per agent",
@@ -345,8 +346,8 @@ def _register_fleet_study(sub: argparse._SubParsersAction[Any], fmt: Any) -> Non
     )  # fmt: skip
     f.add_argument("--timesteps", type=int_at_least(1), default=20_000, help="PPO, per agent")
     f.add_argument("--dagger", type=int_at_least(0), default=1, help="DAgger rounds of cloning")
-    f.add_argument("--learning-rate", type=float, default=1e-4, help="PPO's, after cloning")
-    f.add_argument("--ent-coef", type=float, default=0.0, help="PPO's entropy coefficient")
+    f.add_argument("--learning-rate", type=POSITIVE, default=1e-4, help="PPO's, after cloning")
+    f.add_argument("--ent-coef", type=NONNEGATIVE, default=0.0, help="PPO's entropy coefficient")
     f.add_argument(
         "--imitate", type=int_at_least(0), default=20,
         help="episodes of the predictor's best heuristic each agent clones before PPO (0: none)",
