@@ -187,9 +187,10 @@ class UnitStore:
             )
 
     def _unit_files(self) -> list[Path]:
-        """The files named as units are (not settings, a killed write's temp, or a file
+        """The files named as units (not settings.json, a killed write's temp, or a file
         someone else put here: those are left alone)."""
-        return sorted(p for p in self.directory.glob("*.json") if _UNIT_NAME.fullmatch(p.name))
+        names = (p for p in self.directory.glob("*.json") if not p.name.startswith("."))
+        return sorted(p for p in names if _UNIT_NAME.fullmatch(p.name))
 
     def _stem(self, key: str) -> Path:
         digest = hashlib.sha256(key.encode()).hexdigest()[:10]

@@ -115,7 +115,7 @@ def name_list(
 def out_dir(text: str) -> str:
     """An argparse ``type`` for an output directory: new, or an existing directory (never a
     file, nor under one). Which command wrote it is checked when the command runs
-    (:func:`brake_env.output.claim_output`)."""
+    (:func:`brake_env.output.check_output`)."""
     if not text.strip():
         raise argparse.ArgumentTypeError("expected a directory, got ''")
     path = Path(text)
