@@ -4,13 +4,15 @@ command that has units (:func:`open_store`).
 
 Opening a store, before any long work:
 
-- takes the run's lock (``.lock``, held with ``flock`` until the run ends; the kernel drops
-  it when the process dies), so that a second run into the same ``--out`` refuses, naming
-  the first (pid, host, start time). A lock left by a run that is no longer running is
-  taken over, saying so;
+- takes the run's lock (``.lock``, :mod:`brake_env.run_lock`), so that a second run into
+  the same ``--out`` refuses, naming the first (pid, host, start time). A lock left by a
+  run that is no longer running is taken over, saying so;
+- refuses a non-empty directory without the store's ``settings.json``, naming it: files the
+  project did not write are never adopted, moved or deleted;
 - compares the run's settings with those the store was written with, naming what differs;
-- checks every unit file (whole JSON, its own key, its arrays' SHA-256): a damaged one is
-  moved to ``damaged/`` and its unit redone, naming the file and the unit on stderr;
+- checks every unit file (whole JSON, its own key, the SHA-256 of its content and of its
+  arrays): a damaged or edited one is moved to ``damaged/`` and its unit redone, naming the
+  file and the unit on stderr;
 - says how many of the run's units are done already ("resuming: K of N ...", stderr).
 """
 
@@ -23,9 +25,7 @@ import json
 import os
 import re
 import shutil
-import socket
 import sys
-import time
 import weakref
 from collections.abc import Mapping, Sequence
 from pathlib import Path
@@ -33,20 +33,25 @@ from typing import Any
 
 import numpy as np
 
-from brake_env.output import json_safe, read_arrays, sha256_file, write_arrays, write_json
-
-if sys.platform != "win32":  # Windows has no flock: there the lock names the run, unenforced
-    import fcntl
+from brake_env.output import (
+    TEMP_MARK,
+    json_safe,
+    read_arrays,
+    remove_stale_temps,
+    sha256_file,
+    write_arrays,
+    write_json,
+)
+from brake_env.run_lock import StoreLocked as StoreLocked  # re-exported: raised by open_store
+from brake_env.run_lock import acquire, release
 
 _SAFE = re.compile(r"[^A-Za-z0-9_.=-]+")
+# Unit files as :meth:`UnitStore._stem` names them: other files are not units.
+_UNIT_NAME = re.compile(r".*-[0-9a-f]{10}\.json")
 _ARRAY, _TUPLE, _FLOAT = "$array", "$tuple", "$float"
 SETTINGS = "settings.json"
 LOCK = ".lock"
 DAMAGED = "damaged"
-
-
-class StoreLocked(ValueError):
-    """Another run, still running, holds the store's lock; the message names it."""
 
 
 def open_store(
@@ -83,7 +88,9 @@ def open_store(
 class UnitStore:
     """Finished units' results in ``directory``: per unit a JSON file and, for its arrays,
     an ``.npz`` (read back without pickle, its SHA-256 in the JSON, written first: a unit
-    counts as done once its JSON is there, whole). ``settings.json`` records what the run
+    counts as done once its JSON is there, whole). The JSON carries the SHA-256 of its own
+    content (``sha256``: of the canonical JSON of its key, result and arrays' digest), so a
+    unit edited by hand is redone, not believed. ``settings.json`` records what the run
     was asked for, and the digest of the code that ran (:func:`code_digest`); a rerun asked
     for anything else, or by other code, is refused rather than mixed.
 
@@ -99,7 +106,8 @@ class UnitStore:
 
     Raises:
         StoreLocked: Another running process holds the store.
-        ValueError: ``directory`` holds units of a run with other settings.
+        ValueError: ``directory`` holds units of a run with other settings, or files but no
+            ``settings.json`` (not a store).
     """
 
     def __init__(
@@ -111,9 +119,12 @@ class UnitStore:
     ):
         self.directory = Path(directory)
         self.command = command or "units"
+        self._keys = list(keys)
+        self._aside: list[Path] = []  # unit files this store moved to damaged/
+        _refuse_foreign(self.directory)  # before the lock file is put there
         self.directory.mkdir(parents=True, exist_ok=True)
-        self._lock = _acquire(self.directory / LOCK, self.command)
-        self._release = weakref.finalize(self, _release, self._lock)
+        self._lock = acquire(self.directory / LOCK, self.command)
+        self._release = weakref.finalize(self, release, self._lock)
         try:
             self.settings = self._check_settings(settings)
             self._set_aside_damaged(keys)
@@ -136,6 +147,7 @@ class UnitStore:
         want: dict[str, Any] = json.loads(json.dumps(json_safe(settings), allow_nan=False))
         path = self.directory / SETTINGS
         if not path.is_file():
+            _refuse_foreign(self.directory)
             write_json(want, path)
             return want
         try:
@@ -167,6 +179,7 @@ class UnitStore:
             for part in (path, path.with_suffix(".npz")):
                 if part.exists():
                     shutil.move(part, aside / part.name)
+                    self._aside.append(aside / part.name)
             print(
                 f"{self.command}: unit {key}: {path} is damaged ({problem}); moved it to"
                 f" {aside}/ and will redo the unit",
@@ -174,11 +187,10 @@ class UnitStore:
             )
 
     def _unit_files(self) -> list[Path]:
-        return sorted(
-            p
-            for p in self.directory.glob("*.json")
-            if p.name != SETTINGS and not p.name.startswith(".")  # not a killed write's temp
-        )
+        """The files named as units (not settings.json, a killed write's temp, or a file
+        someone else put here: those are left alone)."""
+        names = (p for p in self.directory.glob("*.json") if not p.name.startswith("."))
+        return sorted(p for p in names if _UNIT_NAME.fullmatch(p.name))
 
     def _stem(self, key: str) -> Path:
         digest = hashlib.sha256(key.encode()).hexdigest()[:10]
@@ -197,7 +209,8 @@ class UnitStore:
         tree = _encode(value, arrays)
         stem = self._stem(key)
         sha = write_arrays(arrays, stem.with_suffix(".npz")) if arrays else None
-        write_json({"key": key, "arrays_sha256": sha, "result": tree}, stem.with_suffix(".json"))
+        doc = {"key": key, "arrays_sha256": sha, "result": tree}
+        write_json({**doc, "sha256": _content_digest(doc)}, stem.with_suffix(".json"))
 
     def load(self, key: str) -> Any:
         """A saved unit's result.
@@ -209,9 +222,58 @@ class UnitStore:
         doc = json.loads(stem.with_suffix(".json").read_text())
         if doc.get("key") != key:
             raise ValueError(f"{stem}.json holds unit {doc.get('key')!r}, not {key!r}")
+        if doc.get("sha256") != _content_digest(doc):
+            raise ValueError(f"{stem}.json: unit {key} was changed since it was written")
         sha = doc.get("arrays_sha256")
         arrays = read_arrays(stem.with_suffix(".npz"), sha, f"unit {key}") if sha else {}
         return _decode(doc["result"], arrays)
+
+    def discard(self) -> None:
+        """Close the store and remove what it wrote: its settings, lock, the run's units
+        and those it set aside; the directory too if that leaves it empty. Files it did not
+        write stay, named on stderr."""
+        self.close()
+        mine = [self.directory / SETTINGS, self.directory / LOCK, *self._aside]
+        for key in self._keys:
+            mine += [self._stem(key).with_suffix(".json"), self._stem(key).with_suffix(".npz")]
+        for path in mine:
+            path.unlink(missing_ok=True)
+        remove_stale_temps(self.directory)
+        for d in (self.directory / DAMAGED, self.directory):
+            with contextlib.suppress(OSError):  # not empty: someone else's files are there
+                d.rmdir()
+        if self.directory.exists():
+            left = sorted(str(p.relative_to(self.directory)) for p in self.directory.rglob("*"))
+            print(
+                f"{self.command}: left {self.directory} in place: it holds files this run did"
+                f" not write ({', '.join(left[:5])}{', ...' if len(left) > 5 else ''})",
+                file=sys.stderr,
+            )
+
+
+def _refuse_foreign(directory: Path) -> None:
+    """Raise unless ``directory`` is new, empty, or a store (has ``settings.json``)."""
+    if directory.exists() and not directory.is_dir():
+        raise ValueError(f"{directory} is a file, not a unit store; write to another --out")
+    if not directory.is_dir() or (directory / SETTINGS).is_file():
+        return
+    found = sorted(
+        p.name for p in directory.iterdir() if p.name != LOCK and TEMP_MARK not in p.name
+    )
+    if found:
+        shown = ", ".join(found[:5]) + (", ..." if len(found) > 5 else "")
+        raise ValueError(
+            f"{directory} is not empty ({shown}) but has no {SETTINGS}: it is not a unit"
+            " store this project wrote, and its files are left alone; move them away or"
+            " write to another --out"
+        )
+
+
+def _content_digest(doc: Mapping[str, Any]) -> str:
+    """SHA-256 of a unit file's content (key, arrays' digest, result) as canonical JSON."""
+    body = {k: doc.get(k) for k in ("key", "arrays_sha256", "result")}
+    text = json.dumps(body, sort_keys=True, separators=(",", ":"), allow_nan=False)
+    return hashlib.sha256(text.encode()).hexdigest()
 
 
 def _unit_problem(path: Path, stem_of: Any) -> tuple[str | None, str | None]:
@@ -226,6 +288,8 @@ def _unit_problem(path: Path, stem_of: Any) -> tuple[str | None, str | None]:
         return None, "not a unit file (no key and result)"
     if stem_of(key).name != path.stem:
         return key, f"holds unit {key!r} under another unit's name"
+    if doc.get("sha256") != _content_digest(doc):
+        return key, "its content is not what was written (changed by hand, or damaged)"
     sha = doc.get("arrays_sha256")
     npz = path.with_suffix(".npz")
     if sha is not None and not npz.is_file():
@@ -239,88 +303,6 @@ def _key_in_text(path: Path) -> str | None:
     """The key written at the start of a cut unit file, if it got that far."""
     found = re.search(r'"key":\s*"([^"]*)"', path.read_text(errors="replace"))
     return found.group(1) if found else None
-
-
-# ---------------------------------------------------------------------- lock
-# This process's locks by path, with how many open stores share each (a command may open
-# its store again, e.g. to read it back; flock would refuse a second open file).
-_HELD: dict[Path, list[Any]] = {}
-
-
-def _acquire(path: Path, command: str) -> Path:
-    """Hold ``path``'s lock for this process; refuse when another running process holds
-    it, naming that process; take over a lock its dead holder left behind, saying so."""
-    path = path.resolve()
-    if path in _HELD:
-        _HELD[path][1] += 1
-        return path
-    fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
-    if sys.platform != "win32":
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError:
-            held = _holder(fd)
-            os.close(fd)
-            raise StoreLocked(
-                f"{path.parent} is in use by another run ({_describe(held)}); wait for it to"
-                " finish or write to another --out"
-            ) from None
-    left = _holder(fd)
-    if left:  # released locks are emptied: this one's holder ended without releasing it
-        print(
-            f"{command}: taking over the lock of {path.parent} left by a run that is no"
-            f" longer running ({_describe(left)})",
-            file=sys.stderr,
-        )
-    me = {
-        "pid": os.getpid(),
-        "host": socket.gethostname(),
-        "started": time.strftime("%Y-%m-%d %H:%M:%S UTC", time.gmtime()),
-        "command": command,
-    }
-    os.ftruncate(fd, 0)
-    os.lseek(fd, 0, os.SEEK_SET)
-    os.write(fd, json.dumps(me).encode())
-    os.fsync(fd)
-    _HELD[path] = [fd, 1]
-    return path
-
-
-def _release(path: Path) -> None:
-    """One store fewer holds ``path``; the last empties the lock file and lets it go."""
-    held = _HELD.get(path)
-    if held is None:
-        return
-    held[1] -= 1
-    if held[1] > 0:
-        return
-    del _HELD[path]
-    fd = held[0]
-    # Empty: released on purpose (a dead holder leaves its name). The directory may be
-    # gone with the finished run: nothing to say then.
-    with contextlib.suppress(OSError):
-        os.ftruncate(fd, 0)
-    os.close(fd)  # closing drops the flock
-
-
-def _holder(fd: int) -> dict[str, Any]:
-    """What the lock file says of its holder ({} when empty or unreadable)."""
-    os.lseek(fd, 0, os.SEEK_SET)
-    text = os.read(fd, 4096).decode(errors="replace")
-    try:
-        held = json.loads(text) if text.strip() else {}
-    except json.JSONDecodeError:
-        return {"note": f"unreadable lock {text[:40]!r}"}
-    return held if isinstance(held, dict) else {}
-
-
-def _describe(held: Mapping[str, Any]) -> str:
-    if "pid" not in held:
-        return str(held.get("note", "holder unknown"))
-    return (
-        f"{held.get('command', '?')}, pid {held['pid']} on {held.get('host', '?')},"
-        f" started {held.get('started', '?')}"
-    )
 
 
 # ---------------------------------------------------------------------- encoding

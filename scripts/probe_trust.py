@@ -555,6 +555,18 @@ def store_cases(w: World) -> list[Case]:
 
         return run
 
+    def edit_value(d: Path) -> None:
+        f = json_of(d)
+        f.write_text(f.read_text().replace('"note": "x"', '"note": "y"'))  # still whole JSON
+
+    def foreign(d: Path) -> Callable[[], Any]:
+        def run() -> Any:
+            d.mkdir()
+            (d / "notes.json").write_text("{}")
+            return units.open_store(d, settings, keys, "probe")
+
+        return run
+
     two = lambda got: got == keys[:2]  # noqa: E731
     redone = lambda got: keys[0] not in got and keys[1] in got  # noqa: E731
     return [
@@ -585,6 +597,14 @@ def store_cases(w: World) -> list[Case]:
             reopen(filled(), rename),
             lambda got: got == [keys[1]],
         ),
+        Case(
+            "unit store",
+            "unit JSON number edited: redone",
+            "correct",
+            reopen(filled(), edit_value),
+            redone,
+        ),
+        Case("unit store", "user's files, no settings.json", "error", foreign(w.tmp / "mine")),
         Case("unit store", "held by a running process", "error", held_elsewhere(filled())),
         Case("unit store", "lock left by a dead process", "correct", dead_holder(filled()), two),
     ]

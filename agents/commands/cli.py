@@ -21,6 +21,7 @@ from brake_env.cli.common import (
     add_common_args,
     add_runner_args,
     add_wear_args,
+    agent_list,
     int_at_least,
     load_atlas,
     make_runner,
@@ -228,9 +229,9 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
     )
     c.add_argument(
         "--agents",
-        type=predictor_list,
+        type=agent_list,
         default=("twin", "oracle"),
-        help="predictors given an agent",
+        help="predictors given an agent ('': none)",
     )
     c.add_argument("--n-train-runs", type=int_at_least(1), default=10, help="pads to fit on")
     c.add_argument("--tune-pads", type=int_at_least(1), default=100, help="per wear label")

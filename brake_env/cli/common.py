@@ -5,10 +5,12 @@ parse time (tables and JSON files are in :mod:`brake_env.output`)."""
 from __future__ import annotations
 
 import argparse
+import math
 import sys
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from importlib.metadata import entry_points
-from typing import Any
+from pathlib import Path
+from typing import Any, NoReturn
 
 from tqdm import tqdm
 
@@ -19,17 +21,112 @@ from brake_env.prognostics.registry import predictor_names
 from brake_env.runner import Runner, ray_available
 
 
+class Parser(argparse.ArgumentParser):
+    """The ``brakewear`` parser (its subcommands' too): a bad option is one line on stderr,
+    naming the command and the option, and exit code 2 (argparse's usage block is left to
+    ``--help``)."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+
+def _typed(name: str, parse: Callable[[str], Any]) -> Callable[[str], Any]:
+    parse.__name__ = name  # argparse names the type in "invalid <name> value"
+    return parse
+
+
 def int_at_least(lo: int) -> Callable[[str], int]:
     """An argparse ``type`` for integers >= ``lo``, with one clear error otherwise."""
 
     def parse(text: str) -> int:
-        n = int(text)
+        try:
+            n = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected an integer >= {lo}, got {text!r}") from None
         if n < lo:
             raise argparse.ArgumentTypeError(f"expected an integer >= {lo}, got {text}")
         return n
 
-    parse.__name__ = f"int>={lo}"  # argparse names the type in its error message
-    return parse
+    return _typed(f"int>={lo}", parse)
+
+
+SEED = int_at_least(0)  # numpy's SeedSequence takes no negative seed
+
+
+def float_in(
+    lo: float | None = None,
+    hi: float | None = None,
+    *,
+    lo_open: bool = False,
+    hi_open: bool = False,
+) -> Callable[[str], float]:
+    """An argparse ``type`` for finite floats in [lo, hi] (``*_open``: the bound excluded)."""
+    left = "" if lo is None else f"{lo:g} {'<' if lo_open else '<='} "
+    right = "" if hi is None else f" {'<' if hi_open else '<='} {hi:g}"
+    want = f"a finite number {left}x{right}"
+
+    def parse(text: str) -> float:
+        try:
+            x = float(text)
+        except ValueError:
+            x = math.nan
+        bad = not math.isfinite(x)
+        bad |= lo is not None and (x <= lo if lo_open else x < lo)
+        bad |= hi is not None and (x >= hi if hi_open else x > hi)
+        if bad:
+            raise argparse.ArgumentTypeError(f"expected {want}, got {text!r}")
+        return x
+
+    return _typed("float", parse)
+
+
+POSITIVE = float_in(0.0, lo_open=True)
+NONNEGATIVE = float_in(0.0)
+
+
+def nonempty(text: str) -> str:
+    """An argparse ``type`` for a name that is not blank."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError(f"expected a name, got {text!r}")
+    return text.strip()
+
+
+def name_list(
+    valid: Callable[[], Sequence[str]] | None = None, *, allow_empty: bool = False
+) -> Callable[[str], tuple[str, ...]]:
+    """An argparse ``type`` for a comma-separated list of names (each among ``valid()``
+    when given, duplicates dropped); an empty list is refused unless ``allow_empty``."""
+
+    def parse(text: str) -> tuple[str, ...]:
+        names = tuple(dict.fromkeys(n.strip() for n in text.split(",") if n.strip()))
+        known = list(valid()) if valid is not None else None
+        bad = [n for n in names if known is not None and n not in known]
+        if bad:
+            raise argparse.ArgumentTypeError(f"unknown name(s) {bad}; valid are {known}")
+        if not names and not allow_empty:
+            among = f" among {','.join(known)}" if known is not None else ""
+            raise argparse.ArgumentTypeError(
+                f"expected a comma-separated list{among}, got {text!r}"
+            )
+        return names
+
+    return _typed("list", parse)
+
+
+def out_dir(text: str) -> str:
+    """An argparse ``type`` for an output directory: new, or an existing directory (never a
+    file, nor under one). Which command wrote it is checked when the command runs
+    (:func:`brake_env.output.check_output`)."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError("expected a directory, got ''")
+    path = Path(text)
+    for p in (path, *path.parents):
+        if p.exists():
+            if not p.is_dir():
+                what = "is a file" if p == path else f"is under {p}, a file"
+                raise argparse.ArgumentTypeError(f"{text} {what}, not a directory")
+            break
+    return text
 
 
 def load_atlas(args: argparse.Namespace, preset: str | None = None) -> Atlas:
@@ -43,8 +140,8 @@ def load_atlas(args: argparse.Namespace, preset: str | None = None) -> Atlas:
 
 def add_common_args(sp: argparse.ArgumentParser, out_default: str) -> None:
     """The options every subcommand takes (plug-in commands use them too)."""
-    sp.add_argument("--out", default=out_default, help="output directory")
-    sp.add_argument("--seed", type=int, default=0, help="random seed (same seed, same files)")
+    sp.add_argument("--out", type=out_dir, default=out_default, help="output directory")
+    sp.add_argument("--seed", type=SEED, default=0, help="random seed (same seed, same files)")
     sp.add_argument(
         "--preset",
         default="hot-duty",
@@ -53,6 +150,7 @@ def add_common_args(sp: argparse.ArgumentParser, out_default: str) -> None:
     )
     sp.add_argument(
         "--cache-dir",
+        type=out_dir,
         default=None,
         help="atlas cache (default $BRAKEWEAR_CACHE_DIR or ~/.cache/brakewear)",
     )
@@ -81,6 +179,7 @@ def add_runner_args(sp: argparse.ArgumentParser, workers: int = 0) -> None:
     sp.add_argument(
         "--ray",
         nargs="?",
+        type=nonempty,
         const="auto",
         default=None,
         metavar="auto|ADDRESS",
@@ -103,18 +202,10 @@ def make_runner(args: argparse.Namespace) -> Runner:
     return Runner(workers=workers, address=address)
 
 
-def predictor_list(text: str) -> tuple[str, ...]:
-    """``--predictors``-style argument: comma-separated names of the predictor registry
-    (:func:`~brake_env.prognostics.registry.predictor_names`), at least one."""
-    out = tuple(x.strip() for x in text.split(",") if x.strip())
-    if not out:
-        raise argparse.ArgumentTypeError(f"name at least one predictor of {predictor_names()}")
-    bad = [x for x in out if x not in predictor_names()]
-    if bad:
-        raise argparse.ArgumentTypeError(
-            f"unknown predictor(s) {bad}; valid are {predictor_names()}"
-        )
-    return out
+# Predictor names of the registry: ``--predictors`` takes at least one, ``--agents`` may be
+# empty ('' for no agent).
+predictor_list = name_list(predictor_names)
+agent_list = name_list(predictor_names, allow_empty=True)
 
 
 def plugins(group: str) -> list[Any]:
@@ -124,13 +215,13 @@ def plugins(group: str) -> list[Any]:
 
 def add_wear_args(sp: argparse.ArgumentParser, k_mean: float = WearRegime.k_mean) -> None:
     """Options of the wear regime (:class:`~brake_env.model.regime.WearRegime`)."""
-    sp.add_argument("--k-mean", type=float, default=k_mean, help="mean Archard coefficient")
+    sp.add_argument("--k-mean", type=POSITIVE, default=k_mean, help="mean Archard coefficient")
     sp.add_argument(
-        "--k-std", type=float, default=None, help="std of the coefficient (default: k-mean / 10)"
+        "--k-std", type=POSITIVE, default=None, help="std of the coefficient (default: k-mean / 10)"
     )
     sp.add_argument(
         "--ood-shift-sigma",
-        type=float,
+        type=NONNEGATIVE,
         default=WearRegime.ood_shift_sigma,
         help="OOD mean shift in units of --k-std",
     )

@@ -7,17 +7,19 @@ import importlib
 import sys
 import warnings
 from collections.abc import Callable, Sequence
+from pathlib import Path
 from typing import Any
 
 from brake_env.cli import demo, simulate
-from brake_env.cli.common import plugins
+from brake_env.cli.common import Parser, plugins
 from brake_env.data.plausibility import PlausibilityWarning
+from brake_env.output import check_output, mark_output
 from brake_env.prognostics.commands import evaluate, fit_predict
 
 
 def build_parser() -> argparse.ArgumentParser:
     fmt = argparse.ArgumentDefaultsHelpFormatter
-    p = argparse.ArgumentParser(prog="brakewear", description=__doc__, formatter_class=fmt)
+    p = Parser(prog="brakewear", description=__doc__, formatter_class=fmt)
     sub = p.add_subparsers(dest="command", required=True)
     simulate.register(sub)
     demo.register(sub)
@@ -54,12 +56,28 @@ def main(argv: Sequence[str] | None = None) -> int:
     warnings.formatwarning = _format_warning
     args = build_parser().parse_args(argv)
     run = command(args.func)
+    out = getattr(args, "out", None)
     try:
-        run(args)
+        if out is not None:  # a folder another command wrote is refused before any work
+            check_output(out, args.command)
+        before = _entries(out)
+        done = False
+        try:
+            run(args)
+            done = True
+        finally:  # interrupted too, once it wrote: the folder then holds its units
+            if out is not None and (done or _entries(out) != before):
+                mark_output(out, args.command)
     except (ValueError, FileNotFoundError) as e:
         print(f"brakewear {args.command}: error: {e}", file=sys.stderr)
         return 2
     return 0
+
+
+def _entries(out: str | None) -> set[str] | None:
+    """The names in ``out`` (None: no such directory)."""
+    path = Path(out) if out is not None else None
+    return {p.name for p in path.iterdir()} if path is not None and path.is_dir() else None
 
 
 if __name__ == "__main__":

@@ -8,7 +8,14 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from brake_env.cli.common import add_common_args, add_runner_args, add_strict_arg, int_at_least
+from brake_env.cli.common import (
+    add_common_args,
+    add_runner_args,
+    add_strict_arg,
+    float_in,
+    int_at_least,
+    nonempty,
+)
 from sim2real.commands.simulate import add_effect_args
 
 _FMT = argparse.ArgumentDefaultsHelpFormatter
@@ -30,10 +37,12 @@ def _add_diagnose(sub: argparse._SubParsersAction[Any]) -> None:
     add_common_args(d, "out/diagnose")
     d.add_argument("--real", required=True, help="event log (.parquet or .csv) to diagnose")
     d.add_argument("--model", default=None, help="the nominal model's atlas .npz")
-    d.add_argument("--candidates", nargs="+", default=None, help="candidate effect names")
+    d.add_argument(
+        "--candidates", nargs="+", type=nonempty, default=None, help="candidate effect names"
+    )
     d.add_argument(
         "--calibration-fraction",
-        type=float,
+        type=float_in(0.1, 0.9),
         default=0.5,
         help="share of runs used to fit candidate parameters",
     )
@@ -49,20 +58,24 @@ def _add_validate_gap(sub: argparse._SubParsersAction[Any]) -> None:
         help="withheld-effect validation of the diagnosis (confusion matrix)",
     )
     add_common_args(v, "out/validate-gap")
-    v.add_argument("--seeds", type=int, default=3, help="seeds per effect at mid magnitude")
-    v.add_argument("--controls", type=int, default=4, help="no-effect control cases")
+    v.add_argument(
+        "--seeds", type=int_at_least(1), default=3, help="seeds per effect at mid magnitude"
+    )
+    v.add_argument("--controls", type=int_at_least(0), default=4, help="no-effect control cases")
     v.add_argument(
         "--out-of-library",
-        type=int,
+        type=int_at_least(0),
         default=2,
         help="cases of the out-of-library effect (pad glazing)",
     )
-    v.add_argument("--runs", type=int, default=8, help="truth runs per case")
+    v.add_argument("--runs", type=int_at_least(2), default=8, help="truth runs per case")
     v.add_argument(
         "--low", action="store_true", help="also each effect once at half its mid magnitude"
     )
     v.add_argument("--no-rul", action="store_true", help="skip the twin's RUL error")
-    v.add_argument("--only", nargs="+", default=None, help="run only cases containing these")
+    v.add_argument(
+        "--only", nargs="+", type=nonempty, default=None, help="run only cases containing these"
+    )
     v.add_argument(
         "--route-block-events",
         type=int_at_least(0),

@@ -11,7 +11,7 @@ from typing import Any
 
 from tqdm import tqdm
 
-from brake_env.cli.common import load_atlas
+from brake_env.cli.common import POSITIVE, load_atlas
 from brake_env.cli.simulate import cmd_simulate, dataset_spec
 from brake_env.data.datasets import SPLITS, Dataset, write_dataset
 from brake_env.output import table, write_json
@@ -94,7 +94,7 @@ def add_effect_args(sim: argparse.ArgumentParser) -> None:
     )
     sim.add_argument(
         "--mean-gap-s",
-        type=float,
+        type=POSITIVE,
         default=60.0,
         help="mean time between events with --effect [s]",
     )

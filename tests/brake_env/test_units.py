@@ -168,3 +168,65 @@ def test_one_process_may_open_its_store_again(tmp_path):
             assert b.load("k") == 1
         assert json.loads((tmp_path / LOCK).read_text())["pid"] == os.getpid()  # still held
     assert (tmp_path / LOCK).read_text() == ""
+
+
+# ---------------------------------------------------------------------- trust at the boundaries
+def test_a_unit_edited_by_hand_is_named_and_redone_as_a_clean_run_would(tmp_path, capsys):
+    with open_store(tmp_path / "clean", {"seed": 0}, KEYS, "test") as store:
+        clean = Runner(0).run(units(), store)
+    with open_store(tmp_path / "run", {"seed": 0}, KEYS, "test") as store:
+        Runner(0).run(units(), store)
+        edited = unit_file(store, "seed=1")
+    doc = json.loads(edited.read_text())
+    doc["result"]["seed"] = 99  # a number changed; the file is still whole JSON
+    edited.write_text(json.dumps(doc))
+    with open_store(tmp_path / "run", {"seed": 0}, KEYS, "test") as store:
+        err = capsys.readouterr().err
+        assert f"test: unit seed=1: {edited} is damaged (its content is not what was" in err
+        assert "seed=1" not in store
+        again = Runner(0).run(units(), store)
+    for k in KEYS:
+        assert again[k]["seed"] == clean[k]["seed"]
+        np.testing.assert_array_equal(again[k]["x"], clean[k]["x"])
+
+
+def test_load_refuses_a_unit_changed_after_the_store_opened(tmp_path):
+    with open_store(tmp_path, {}, KEYS, "test") as store:
+        Runner(0).run(units(), store)
+        path = unit_file(store, "seed=0")
+        path.write_text(path.read_text().replace('"seed": 0', '"seed": 5'))
+        with pytest.raises(ValueError, match="was changed since it was written"):
+            store.load("seed=0")
+
+
+def test_a_non_empty_folder_without_settings_is_refused_and_left_alone(tmp_path):
+    units_dir = tmp_path / "units"
+    units_dir.mkdir()
+    (units_dir / "notes.json").write_text("{}\n")
+    (units_dir / "a.txt").touch()
+    with pytest.raises(ValueError, match=r"units is not empty \(a.txt, notes.json\) but has no"):
+        open_store(units_dir, {"seed": 0}, KEYS, "test")
+    assert sorted(p.name for p in units_dir.iterdir()) == ["a.txt", "notes.json"]  # no lock
+
+
+def test_files_put_in_a_store_are_not_units_and_survive_its_discard(tmp_path, capsys):
+    with open_store(tmp_path / "units", {"seed": 0}, KEYS, "test") as store:
+        (tmp_path / "units" / "notes.json").write_text("{}\n")
+        Runner(0).run(units(), store)
+    with open_store(tmp_path / "units", {"seed": 0}, KEYS, "test") as store:
+        assert "damaged" not in capsys.readouterr().err  # notes.json is not taken for a unit
+        assert store.keys() == KEYS
+        store.discard()
+    assert [p.name for p in (tmp_path / "units").iterdir()] == ["notes.json"]
+    assert "files this run did not write (notes.json)" in capsys.readouterr().err
+
+
+def test_discard_removes_the_folder_when_only_its_files_are_there(tmp_path, capsys):
+    with open_store(tmp_path / "units", {"seed": 0}, KEYS, "test") as store:
+        Runner(0).run(units(), store)
+        cut = unit_file(store, "seed=0")
+    cut.write_bytes(cut.read_bytes()[:20])
+    with open_store(tmp_path / "units", {"seed": 0}, KEYS, "test") as store:
+        Runner(0).run(units(), store)
+        store.discard()
+    assert not (tmp_path / "units").exists()

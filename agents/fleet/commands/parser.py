@@ -9,7 +9,15 @@ import argparse
 from typing import Any
 
 from agents.fleet.settings import DEFAULT_HEURISTICS, HEURISTICS, SIZES
-from brake_env.cli.common import add_common_args, add_runner_args, int_at_least, predictor_list
+from brake_env.cli.common import (
+    NONNEGATIVE,
+    POSITIVE,
+    add_common_args,
+    add_runner_args,
+    agent_list,
+    int_at_least,
+    predictor_list,
+)
 from brake_env.prognostics.registry import predictor_names
 
 
@@ -37,7 +45,9 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
     f.add_argument("--tune-episodes", type=int_at_least(1), default=3)
     f.add_argument("--eval-episodes", type=int_at_least(2), default=40)
     f.add_argument("--n-train-runs", type=int_at_least(1), default=10, help="pads to fit on")
-    f.add_argument("--agents", type=predictor_list, default=(), help="predictors given MaskablePPO")
+    f.add_argument(
+        "--agents", type=agent_list, default=(), help="predictors given MaskablePPO ('': none)"
+    )
     f.add_argument(
         "--agent-seeds", type=int_at_least(0), default=10,
         help="training seeds of MaskablePPO (one policy for the fleet) per agent",
@@ -48,8 +58,8 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
     )  # fmt: skip
     f.add_argument("--timesteps", type=int_at_least(1), default=20_000, help="PPO, per agent")
     f.add_argument("--dagger", type=int_at_least(0), default=1, help="DAgger rounds of cloning")
-    f.add_argument("--learning-rate", type=float, default=1e-4, help="PPO's, after cloning")
-    f.add_argument("--ent-coef", type=float, default=0.0, help="PPO's entropy coefficient")
+    f.add_argument("--learning-rate", type=POSITIVE, default=1e-4, help="PPO's, after cloning")
+    f.add_argument("--ent-coef", type=NONNEGATIVE, default=0.0, help="PPO's entropy coefficient")
     f.add_argument(
         "--imitate", type=int_at_least(0), default=20,
         help="episodes of the predictor's best heuristic each agent clones before PPO (0: none)",
@@ -57,9 +67,9 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
     f.add_argument(
         "--imitation-epochs", type=int_at_least(1), default=30, help="passes of the cloning"
     )
-    f.add_argument("--imitation-lr", type=float, default=1e-3, help="Adam's, for the cloning")
+    f.add_argument("--imitation-lr", type=POSITIVE, default=1e-3, help="Adam's, for the cloning")
     f.add_argument("--n-envs", type=int_at_least(1), default=4, help="PPO's parallel envs")
-    f.add_argument("--clip-range", type=float, default=0.2, help="PPO's")
+    f.add_argument("--clip-range", type=POSITIVE, default=0.2, help="PPO's")
     f.add_argument(
         "--raw-reward", action="store_true",
         help="no running normalisation of the rewards (VecNormalize's norm_reward)",

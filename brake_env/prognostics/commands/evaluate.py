@@ -27,6 +27,7 @@ from brake_env.cli.common import (
     add_wear_args,
     int_at_least,
     load_atlas,
+    name_list,
 )
 from brake_env.cli.demo import DemoContext
 from brake_env.data.datasets import DatasetSpec, find_logs
@@ -48,15 +49,7 @@ from brake_env.prognostics.seeds import fit_all, make_predictors
 DEFAULT_PREDICTORS = ("physics", "data", "twin")
 
 
-def _predictor_list(text: str) -> tuple[str, ...]:
-    names = tuple(dict.fromkeys(n.strip() for n in text.split(",") if n.strip()))
-    bad = [n for n in names if n not in predictor_names()]
-    if bad or not names:
-        raise argparse.ArgumentTypeError(
-            f"--predictors takes a comma-separated subset of {','.join(predictor_names())},"
-            f" got {text!r}"
-        )
-    return names
+_predictor_list = name_list(predictor_names)
 
 
 def register(sub: argparse._SubParsersAction[Any]) -> None:

@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import argparse
 import math
-import shutil
 import sys
 import time
 from collections.abc import Callable
@@ -44,6 +43,7 @@ from brake_env.cli.common import (
     int_at_least,
     load_atlas,
     make_runner,
+    out_dir,
 )
 from brake_env.data.datasets import find_logs
 from brake_env.data.plausibility import warn_fitted, warn_implausible
@@ -92,11 +92,13 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
     )
     p.add_argument("--model", required=True, help="model directory written by brakewear fit")
     p.add_argument("--log", required=True, help="event log (.parquet/.csv), no truth needed")
-    p.add_argument("--out", default="out/predict", help="output directory")
+    p.add_argument("--out", type=out_dir, default="out/predict", help="output directory")
     p.add_argument(
         "--atlas", default=None, help="atlas .npz (default: the model's atlas, from the cache)"
     )
-    p.add_argument("--cache-dir", default=None, help="atlas cache (as for the other commands)")
+    p.add_argument(
+        "--cache-dir", type=out_dir, default=None, help="atlas cache (as for the other commands)"
+    )
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument(
         "--pads-per-unit",
@@ -178,7 +180,7 @@ def censored_runs(log: pd.DataFrame) -> list[str]:
 
 
 # ------------------------------------------------------------------------------ predict
-UNITS = "units"  # the unit store under --out: removed once the outputs are written
+UNITS = "units"  # the unit store under --out: its files removed once the outputs are written
 
 
 def cmd_predict(args: argparse.Namespace) -> pd.DataFrame:
@@ -205,6 +207,7 @@ def cmd_predict(args: argparse.Namespace) -> pd.DataFrame:
         finally:
             predict_units.forget()
         fleet = _finish(out, (traces, rows), missing, pred, (header, args))
+        store.discard()  # its own files only: anything else in OUT/units/ stays
     print(table(_display_rows(fleet)))
     print(
         f"\n{len(fleet)} pads, {len(log):,} events in {time.perf_counter() - t0:.1f} s;"
@@ -220,7 +223,7 @@ def _finish(
     pred: Predictor,
     context: tuple[dict[str, Any], argparse.Namespace],
 ) -> pd.DataFrame:
-    """Write the outputs of the units' ``(traces, rows)`` and drop the store; the table."""
+    """Write the outputs of the units' ``(traces, rows)``; the table."""
     (traces, rows), (header, args) = outputs, context
     fleet = predict_units.sort_table(rows, missing)
     warnings = [
@@ -232,7 +235,6 @@ def _finish(
     for w in warnings:
         print(f"predict: warning: {w}", file=sys.stderr)
     _write_outputs(out, fleet, traces, pred, header, args, warnings=warnings)
-    shutil.rmtree(out / UNITS)
     return fleet
 
 

@@ -17,6 +17,7 @@ from brake_env.data.schema import GROUND_TRUTH, write_event_log
 from brake_env.model.atlas import Atlas, AtlasSpec
 from brake_env.model.regime import WearRegime
 from brake_env.model.wear import WearModel
+from brake_env.output import OUTPUT_MARK
 from brake_env.prognostics.persist import load_predictor, read_header
 from brake_env.prognostics.protocol import predict_log
 
@@ -98,7 +99,8 @@ def test_hand_written_log_two_pads_one_mid_life(
         range(5000, 5006)
     )
     assert (out / "fleet.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
-    assert not [p for p in out.iterdir() if p.name.startswith(".")]  # no temporary left
+    left = [p for p in out.iterdir() if p.name.startswith(".") and p.name != OUTPUT_MARK]
+    assert not left  # no temporary left
 
 
 def test_a_channel_missing_for_a_whole_pad_is_reported(
@@ -179,7 +181,40 @@ def test_preconditions_fail_fast_with_clear_messages(
     assert not (tmp_path / "o").exists()  # nothing written before the checks pass
     (tmp_path / "file").write_text("")
     fit = ["fit", "--data", str(log), "--predictor", "twin", "--out", str(tmp_path / "file")]
-    assert main([*fit, "--quiet"]) == 2
-    assert "exists and is not a directory" in capsys.readouterr().err
+    with pytest.raises(SystemExit, match="2"):
+        main([*fit, "--quiet"])
+    assert "argument --out: " in capsys.readouterr().err
     with pytest.raises(SystemExit):
         main(["fit", "--data", str(log), "--predictor", "lstm"])
+
+
+def test_predict_leaves_a_units_folder_of_the_users_alone(
+    model: tuple[Path, Path], tmp_path: Path, capsys: pytest.CaptureFixture
+) -> None:
+    """The reproduction of issue 29: X/units holding the user's files, then predict --out X.
+    They were moved and deleted; now predict refuses, naming the folder, and changes nothing."""
+    log = tmp_path / "pads.csv"
+    log.write_text(HAND_LOG)
+    out = tmp_path / "X"
+    (out / "units").mkdir(parents=True)
+    (out / "units" / "notes.json").write_text("{}\n")
+    (out / "units" / "a.txt").touch()
+    argv = ["predict", "--model", str(model[0]), "--log", str(log), "--out", str(out)]
+    assert main([*argv, "--atlas", str(model[1]), "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert f"{out / 'units'} is not empty (a.txt, notes.json) but has no settings.json" in err
+    assert err.count("error") == 1
+    assert sorted(p.name for p in out.rglob("*")) == ["a.txt", "notes.json", "units"]
+    assert (out / "units" / "notes.json").read_text() == "{}\n"
+
+
+def test_predict_refuses_the_folder_of_its_model(
+    model: tuple[Path, Path], tmp_path: Path, capsys: pytest.CaptureFixture
+) -> None:
+    log = tmp_path / "pads.csv"
+    log.write_text(HAND_LOG)
+    before = sorted(p.name for p in model[0].iterdir())
+    argv = ["predict", "--model", str(model[0]), "--log", str(log), "--out", str(model[0])]
+    assert main([*argv, "--atlas", str(model[1]), "--quiet"]) == 2
+    assert "holds the output of `brakewear fit`" in capsys.readouterr().err
+    assert sorted(p.name for p in model[0].iterdir()) == before

@@ -21,6 +21,7 @@ from brake_env.data.datasets import DatasetSpec, make_dataset
 from brake_env.data.schema import GROUND_TRUTH, read_event_log, write_event_log
 from brake_env.model.atlas import Atlas
 from brake_env.model.regime import WearRegime
+from brake_env.output import OUTPUT_MARK
 from brake_env.prognostics.commands import fit_predict, predict_units
 from brake_env.prognostics.commands.fit_predict import missing_channels
 from brake_env.prognostics.fleet import ESTIMATE_FIELDS, predict_runs
@@ -120,6 +121,7 @@ def test_in_process_on_ray_and_whole_fleet_agree(
     assert_same_outputs(here, on_ray)
     assert not (here / "units").exists() and not (on_ray / "units").exists()
     assert sorted(p.name for p in here.iterdir()) == [
+        OUTPUT_MARK,
         "fleet.csv",
         "fleet.json",
         "fleet.png",
