@@ -1,4 +1,4 @@
-"""Right-censored training lives (README "Fleet logs").
+"""Right-censored training lives (docs/results/prognostics.md).
 
 A pad removed at event ``c`` before failure survived ``c + 1`` events: its life is longer,
 so its wear coefficient (or wear rate) is *below* the one a life of ``c + 1`` events would
@@ -12,7 +12,7 @@ all three kinds of evidence by maximum likelihood (Tobit-style survival likeliho
   ``N(m; mu, sigma^2 + s^2) * Phi((u - m_post) / s_post)`` (the posterior of K given the
   reading, truncated by survival).
 
-The column names are the event-log schema's (README "Event-log schema").
+The column names are the event-log schema's (docs/schema.md).
 """
 
 from __future__ import annotations

@@ -18,7 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 I64 = NDArray[np.int64]
-_SEG = np.int64(1 << 31)  # block indices are < 2**31 (events < 1e9, README "Event-log schema")
+_SEG = np.int64(1 << 31)  # block indices are < 2**31 (events < 1e9, docs/schema.md)
 
 
 class RollingSums:

@@ -1,5 +1,5 @@
 """What the baselines read from training logs: how each run ended, its life when known, the
-true RUL, and the pad volumes measured in the workshop (README "Fleet logs").
+true RUL, and the pad volumes measured in the workshop (docs/results/prognostics.md).
 
 How a run ended is :func:`brake_env.data.runs.run_ends`'s reading. Simulated logs carry
 the truth (``rul_events``), which gives the life of a run even when it was cut short. A run

@@ -8,7 +8,7 @@ is the true RUL of each training event, scaled by its training standard deviatio
 hidden layers of 20 and 10 ReLU units, one linear output, mean-squared error, Adam with a
 cosine-decaying learning rate over minibatches of the ~1e6 training events, on the CPU.
 
-Training runs removed before failure (README "Fleet logs") enter as what they are: after
+Training runs removed before failure (docs/results/prognostics.md) enter as what they are: after
 event ``k`` of a run removed after event ``c``, the RUL is at least ``c + 1 - k``, so only
 an estimate below that bound is an error (a one-sided squared loss, censored regression);
 their measured volumes are not used. The event index counts from installation, so a log

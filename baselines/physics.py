@@ -20,7 +20,7 @@ and the RUL after event k is ``max(N_fail - 1 - k, 0)``: a straight line, whatev
 sensors say. ``V_fail`` is the atlas's failure volume; it cancels out of ``N_fail``. The
 event index counts from installation, so a log that starts mid-life gets the same line.
 
-Pads removed before failure (README "Fleet logs") are used, never by taking their length as
+Pads removed before failure (docs/results/prognostics.md) are used, never by taking their length as
 a life: a run removed after ``c + 1`` events had ``K < (1 - V_fail) V_0 / ((c + 1) w20)``,
 and a remaining volume ``V`` measured after ``n`` events reads, on this model's straight
 line, ``K = (1 - V) V_0 / (n w20)`` with the gauge's noise. ``K_avg`` is then the mean of

@@ -1,5 +1,5 @@
 """A data-driven baseline a practitioner would build: a health index from rolling-window
-features, extrapolated to a life (README "Prognostics").
+features, extrapolated to a life (docs/results/prognostics.md).
 
 The paper's MLP (paper 2.2) reads one event at a time; a single event says little about
 the pad, because its temperature is dominated by the operating conditions and the sensor

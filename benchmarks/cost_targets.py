@@ -1,4 +1,4 @@
-"""The single-pad cost study's targets (README "Maintenance cost by predictor"), read from a
+"""The single-pad cost study's targets (docs/results/single-pad.md), read from a
 ``costs.json`` that ``brakewear compare`` wrote: each target with its measured figure and
 interval, met or missed. The product reports results; the targets are ours, so they live here.
 

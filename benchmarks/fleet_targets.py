@@ -1,6 +1,6 @@
-"""The fleet study's targets (issue 21; README "The fleet study"), read from a ``costs.json``
-that ``brakewear fleet-study`` wrote: each target with its measured figure and interval,
-met or missed. The study reports results; the targets are ours, so they live here.
+"""The fleet study's targets (issue 21; docs/results/fleet.md, "The fleet study"), read from a
+``costs.json`` that ``brakewear fleet-study`` wrote: each target with its measured figure and
+interval, met or missed. The study reports results; the targets are ours, so they live here.
 
 1. MaskablePPO with the twin's RUL beats the best tuned heuristic with the twin's RUL by at
    least 10% of its cost (IQM over at least 10 training seeds), the 95% interval of the

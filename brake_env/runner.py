@@ -1,6 +1,6 @@
 """Independent units of work (pads, seeds, cases, training runs) run in this process or as
 Ray tasks, each result saved as it finishes so that an interrupted run resumes from what
-finished (README "Running on a cluster").
+finished (docs/cluster.md).
 
 A unit is a module-level function and its arguments; its result depends on its arguments
 alone (each unit is seeded by its own number), so the results are the same wherever it

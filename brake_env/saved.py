@@ -1,6 +1,6 @@
 """The header of a saved directory (a fitted predictor, a trained agent): one JSON file
 that names its format and version and vouches for the arrays beside it. One reader, so
-that every saved thing is refused the same way (README "Fleet logs")."""
+that every saved thing is refused the same way (docs/results/prognostics.md)."""
 
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
 """The unit store: finished units' results in ``<out>/units``, so that an interrupted run
-resumes from what finished (README "Running on a cluster"). One implementation for every
+resumes from what finished (docs/cluster.md). One implementation for every
 command that has units (:func:`open_store`).
 
 Opening a store, before any long work:

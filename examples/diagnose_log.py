@@ -3,7 +3,7 @@
 Run: ``python examples/diagnose_log.py [EFFECT]``. Simulates a small fleet of fast-wearing
 pads with an effect the nominal model does not know (default: heat partly lost to the disc,
 ``heat_partition:phi=0.2``; any ``brakewear simulate --effect`` text works), diagnoses the
-logs against the nominal model (localise, attribute, quantify; README "Sim-to-real gap")
+logs against the nominal model (localise, attribute, quantify; docs/results/sim2real.md)
 and prints which effect the diagnosis names and the held-out gap before and after adding it.
 """
 

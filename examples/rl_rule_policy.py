@@ -7,7 +7,7 @@ drives it with ``RULThreshold`` (SB3's ``predict`` signature, so a trained agent
 in the same way) and prints the maintenance cost, the failures and the planned replacements,
 beside the oracle's cost on the same pads.
 Fast-wearing pads (K ten times the paper's) keep it short; ``brakewear compare`` does the
-full study (README, "Maintenance cost by predictor").
+full study (docs/results/single-pad.md).
 """
 
 from __future__ import annotations

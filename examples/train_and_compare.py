@@ -5,8 +5,8 @@ Run: ``python examples/train_and_compare.py [OUT_DIR]`` (a few minutes on 2 core
 policy is evaluated on the same held-out pads, with paired bootstrap intervals over pads;
 prints the cost table and writes ``costs.json`` and the figures to OUT_DIR
 (default out/example_compare). Fast-wearing pads (K five times the paper's) keep it short;
-``brakewear compare`` is the same with every predictor at the full budget (README,
-"Maintenance cost by predictor").
+``brakewear compare`` is the same with every predictor at the full budget
+(docs/results/single-pad.md).
 """
 
 from __future__ import annotations
@@ -45,7 +45,7 @@ def main(
         predictors: Predictors whose threshold policies are tuned.
         agent: The predictor PPO acts on.
         workers: CPUs of a local Ray that runs the pads and the training beside each other
-            (0: all in this process; README "Running on a cluster").
+            (0: all in this process; docs/cluster.md).
     """
     config = StudyConfig(
         env=EnvConfig.from_kwargs(

@@ -1,2 +1,2 @@
-"""Sim-to-real gap: unmodelled-effect library, "truth" simulator and gap diagnosis (README
-"Sim-to-real gap")."""
+"""Sim-to-real gap: unmodelled-effect library, "truth" simulator and gap diagnosis
+(docs/results/sim2real.md)."""

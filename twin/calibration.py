@@ -1,7 +1,7 @@
 """What the twin learns from training runs: the prior over K and the temperature noise
 model (paper 2.4, identification), from run-to-failure and censored runs alike.
 
-Real fleets rarely run pads to failure (README "Fleet logs"): most runs end at a planned
+Real fleets rarely run pads to failure (docs/results/prognostics.md): most runs end at a planned
 replacement, sometimes with the remaining volume measured in the workshop. Such a run's
 length is a lower bound on its life, never a life. The prior over log K is therefore fitted
 by maximum likelihood over three kinds of evidence:

@@ -1,4 +1,4 @@
-"""Many pads through one calibrated twin at once (README "Prognostics").
+"""Many pads through one calibrated twin at once (docs/results/prognostics.md).
 
 Per pad the fleet keeps the grid log-likelihood as a difference array over the K grid: an
 event's log-likelihood is piecewise constant over the grid, with one jump where each grid

@@ -2,7 +2,7 @@
 
 The ``brakewear`` parser loads this module to register the commands, so it imports only
 what parsing needs; the training and the comparison (torch, SB3) are imported by the
-commands that run them (README "Architecture"; ``brakewear --help`` stays fast).
+commands that run them (docs/architecture.md; ``brakewear --help`` stays fast).
 """
 
 from __future__ import annotations

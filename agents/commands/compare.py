@@ -1,5 +1,5 @@
-"""Rank RUL predictors by the maintenance cost they lead to (the testbed's headline; README,
-"Maintenance cost by predictor").
+"""Rank RUL predictors by the maintenance cost they lead to (the testbed's headline;
+docs/results/single-pad.md).
 
 For each predictor: an RUL-threshold policy on its point estimate and, where it gives an
 interval, one on its lower bound, each threshold tuned on tuning pads; and trained SB3

@@ -1,7 +1,7 @@
 """The units of ``brakewear compare`` run by a :class:`~brake_env.runner.Runner`: the tuning
 pads in chunks; then the agents, trained while the held-out pads are simulated; each unit
-kept in ``<out>/units`` so that an interrupted comparison resumes (README "Running on a
-cluster", "Maintenance cost by predictor")."""
+kept in ``<out>/units`` so that an interrupted comparison resumes (docs/cluster.md,
+docs/results/single-pad.md)."""
 
 from __future__ import annotations
 

@@ -1,6 +1,6 @@
 """The cost study's work as units of :class:`~brake_env.runner.Runner`: chunks of pads
-simulated and run through every predictor, and agents trained (README "Running on a
-cluster", "Maintenance cost by predictor").
+simulated and run through every predictor, and agents trained (docs/cluster.md,
+docs/results/single-pad.md).
 
 A unit's result is a tree the :class:`~brake_env.runner.UnitStore` saves (arrays, numbers,
 strings, dicts), so an interrupted study resumes from the units that finished; and it holds

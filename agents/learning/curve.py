@@ -1,5 +1,5 @@
 """Learned agents on the cost study's pads: evaluated pad by pad, and their learning curve
-(README "Maintenance cost by predictor").
+(docs/results/single-pad.md).
 
 A trained agent acting deterministically is a stateless policy of its observation, and its
 observation at a decision point is a function of the pad's age and the predictor's estimates

@@ -5,9 +5,9 @@ The replacement decision hinges on "is the RUL below one or two steps?", a slive
 feature that spans ~1e5 events: ``log1p(x / decision_interval)`` gives that region the
 resolution a small MLP can separate (VecNormalize then centres it). The raw sensor readings
 are left out: the predictor has already digested them, and six channels of noise only slow
-the agent's learning of the one comparison that matters (README "Maintenance cost by
-predictor"). The same function builds the observation in the env (:class:`AgentFeatures`)
-and at the decision points of a pad set (:func:`pad_observations`), so an agent evaluated
+the agent's learning of the one comparison that matters
+(docs/results/single-pad.md). The same function builds the observation in the env
+(:class:`AgentFeatures`) and at the decision points of a pad set (:func:`pad_observations`), so an agent evaluated
 pad by pad sees exactly what it saw in training.
 """
 

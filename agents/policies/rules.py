@@ -118,7 +118,7 @@ _TUNED = ("threshold", "lower-threshold", "fixed-interval")
 
 @dataclass(frozen=True)
 class PolicyId:
-    """Which policy a row of the cost comparison is (README, "Maintenance cost by predictor");
+    """Which policy a row of the cost comparison is (docs/results/single-pad.md);
     its :attr:`label` names it in tables, figures and ``costs.json``.
 
     Attributes:

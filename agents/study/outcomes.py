@@ -1,5 +1,5 @@
 """Where a policy takes each pad of a :class:`~agents.study.pads.PadSet` off, and the cost per
-braking event that leads to (README "Maintenance cost by predictor").
+braking event that leads to (docs/results/single-pad.md).
 
 A stateless policy (a rule, or a trained agent acting deterministically) decides at each
 decision point from what it sees there, so a pad is taken off at its first decision to

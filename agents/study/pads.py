@@ -1,5 +1,5 @@
 """The pads of the cost study and what every predictor estimated at their decision points
-(README "Maintenance cost by predictor").
+(docs/results/single-pad.md).
 
 Actions cannot change how a pad wears (its events depend only on its K and its random
 stream), so neither its events nor a predictor's estimates depend on the policy. Each pad

@@ -1,6 +1,6 @@
 """Every policy on the held-out pads under one cost ratio: the ranking, with paired bootstrap
 intervals of each ratio to the oracle and of each gap between neighbours in the ranking
-(README "Maintenance cost by predictor")."""
+(docs/results/single-pad.md)."""
 
 from __future__ import annotations
 

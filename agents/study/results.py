@@ -1,7 +1,7 @@
 """What the cost comparison returns (:class:`CompareResult`) and writes as ``costs.json``.
 
 Policies are keyed by :class:`~agents.policies.rules.PolicyId`; their labels become the keys of
-the JSON, whose layout is described in the README ("Maintenance cost by predictor").
+the JSON, whose layout is described in docs/results/single-pad.md.
 """
 
 from __future__ import annotations

@@ -26,8 +26,8 @@ def build_parser() -> argparse.ArgumentParser:
     evaluate.register(sub)
     fit_predict.register(sub)
     # Commands of the downstream packages (twin, baselines, agents, sim2real) register
-    # themselves as plug-ins, so brake_env never imports them (imports flow one way: README
-    # "Architecture").
+    # themselves as plug-ins, so brake_env never imports them (imports flow one way:
+    # docs/architecture.md).
     for ep in plugins("brakewear.commands"):
         ep.load()(sub)
     return p

@@ -66,7 +66,7 @@ def cmd_atlas(args: argparse.Namespace) -> dict[str, Any]:
 
 def write_atlas(atlas: Atlas, preset: str, others: dict[str, Atlas], out: Path) -> dict[str, Any]:
     """``atlas.npz``, ``atlas.json`` and the calibration figure, which sets the ``others``
-    presets beside this one (README "The model"'s contrast); the summary printed."""
+    presets beside this one (docs/model.md's contrast); the summary printed."""
     from brake_env.data.plots import plot_calibration
 
     atlas.save(out / "atlas.npz")

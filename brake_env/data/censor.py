@@ -1,4 +1,4 @@
-"""Training fleets whose pads were removed before failure (README "Fleet logs").
+"""Training fleets whose pads were removed before failure (docs/results/prognostics.md).
 
 Real fleets rarely run pads to failure: a pad is replaced at a planned service, sometimes
 with its remaining volume measured in the workshop. :func:`censor_log` turns a simulated

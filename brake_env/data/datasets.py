@@ -3,7 +3,7 @@
 Training and in-distribution (ID) test pads draw K ~ N(mu_K, sigma_K^2); the
 out-of-distribution (OOD) pads come from means shifted by -6 sigma (slow wear) and +6 sigma
 (fast wear). Each run is simulated to failure through the atlas, sensor noise is added, and
-the runs are written as event logs (README "Event-log schema") with ground-truth columns.
+the runs are written as event logs (docs/schema.md) with ground-truth columns.
 A dataset directory gets a manifest, written last, that :func:`find_logs` checks.
 """
 
@@ -304,7 +304,7 @@ def find_logs(data_dir: str | Path, splits: tuple[str, ...] = SPLITS) -> dict[st
 
     A directory with a manifest (:func:`write_dataset`) must match it: only the files it
     lists are used, each with its size and checksum. A directory without one holds a
-    user's own logs and is taken as it is (README "Event-log schema").
+    user's own logs and is taken as it is (docs/schema.md).
 
     Raises:
         FileNotFoundError: No such directory, or a split without a log.

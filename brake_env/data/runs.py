@@ -1,6 +1,6 @@
 """How each run of an event log ended, read once for every consumer (the predictors' fits,
 ``brakewear fit``): failed or removed before failure, its last event, and the pad volumes
-measured in the workshop (README "Fleet logs", columns ``failed`` and
+measured in the workshop (docs/results/prognostics.md, columns ``failed`` and
 ``measured_volume_frac``).
 
 A run ends at failure when its last row has ``failed`` true; a log without that column is a

@@ -1,4 +1,4 @@
-"""The event-log schema (README "Event-log schema"), a public contract for CSV and Parquet files.
+"""The event-log schema (docs/schema.md), a public contract for CSV and Parquet files.
 
 One row per braking event. Required: ``run_id`` (str), ``event`` (int, counted from the
 pad's installation, strictly increasing within a run) and the measured channels. Optional:

@@ -76,7 +76,7 @@ class BrakeWearEnv(gym.Env[NDArray[np.float32], np.int64]):
 
     A heavy mining vehicle (42-54 t) brakes again and again on a ramp; every braking event
     wears its pads, and a thinner pad heats more, so friction fades and wear accelerates
-    (the coupled physics of the atlas, README "The model"-4). When the pad falls below its critical
+    (the coupled physics of the atlas, docs/model.md-4). When the pad falls below its critical
     volume the most severe event can no longer stop the vehicle: a brake failure. The agent
     decides, every ``decision_interval`` braking events, whether to keep the pads or replace
     them now. Replacing early wastes pad life; replacing late risks a failure, which costs

@@ -1,4 +1,4 @@
-"""A pad's life, simulated as the environment uses it (README "The environment").
+"""A pad's life, simulated as the environment uses it (docs/environments.md).
 
 A replacement should cost what the pad is used for, not its whole life. A :class:`PadLife`
 simulates its events a block at a time (about one atlas layer, at most

@@ -1,7 +1,7 @@
 """Temperature-dependent friction and hardness of the pad material (paper Tables 1 and 3).
 
 The paper's PDF extraction lost the brackets; the correct reading keeps the coefficient
-inside the square (README "The model"):
+inside the square (docs/model.md):
 
     mu(T) = mu0 * (mu1 + mu2 / ((mu3 * (T - mu4))**2 + 1))
     H(T)  = H0 * (H1 + H2 / ((H3 * (T - H4))**2 + 1) + H5 / ((H6 * (T - H7))**2 + 1))

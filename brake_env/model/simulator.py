@@ -1,4 +1,4 @@
-"""Coupled run-to-failure wear simulation through the atlas (paper Steps 3-5; README "The model").
+"""Coupled run-to-failure wear simulation through the atlas (paper Steps 3-5; docs/model.md).
 
 For every braking event, operating conditions are drawn uniformly over the envelope, the
 active atlas layer gives the response, and the pad loses ``K * wear_per_k``. When the volume

@@ -1,5 +1,5 @@
-"""What a predictor reads and gives (README "Prognostics"): an :class:`EventBatch` of one
-pad's braking events, named like the event-log columns (README "Event-log schema"), so a
+"""What a predictor reads and gives (docs/results/prognostics.md): an :class:`EventBatch` of one
+pad's braking events, named like the event-log columns (docs/schema.md), so a
 predictor written against logs runs unchanged online; the :class:`RULEstimate` after each
 of them; and :class:`RULPredictor`, the protocol any estimator follows. The fleets
 (:mod:`.fleet`) and the predictor base class (:mod:`.protocol`) build on these.
@@ -146,7 +146,7 @@ class RULEstimate:
 
 @runtime_checkable
 class RULPredictor(Protocol):
-    """Anything that estimates RUL from braking events (README "Prognostics")."""
+    """Anything that estimates RUL from braking events (docs/results/prognostics.md)."""
 
     @property
     def name(self) -> str: ...

@@ -1,4 +1,4 @@
-"""Many pads through one predictor at once (README "Prognostics").
+"""Many pads through one predictor at once (docs/results/prognostics.md).
 
 A :class:`Fleet` holds the per-pad state of one fitted predictor for ``n_pads`` slots (the
 sub-environments of a vector env, the runs of a log, the pads of a cost study). One

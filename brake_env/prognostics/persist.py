@@ -1,4 +1,4 @@
-"""Fitted predictors on disk without pickle (README "Fleet logs").
+"""Fitted predictors on disk without pickle (docs/results/prognostics.md).
 
 A saved predictor is a directory of two files:
 

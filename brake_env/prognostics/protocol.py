@@ -1,4 +1,4 @@
-"""The predictor protocol (README "Prognostics") and the two predictors that need no model.
+"""The predictor protocol (docs/results/prognostics.md) and the two predictors that need no model.
 
 Every RUL predictor is fitted on training runs, reset when a pad is installed, and updated
 with a batch of braking events of that pad. ``update`` returns one estimate *per event of
@@ -7,7 +7,7 @@ the environment (batches of ``decision_interval`` events) or over a whole logged
 (one batch), with the same code and the same numbers.
 
 Events travel as an :class:`EventBatch`: numpy arrays named like the event-log columns
-(README "Event-log schema"), so a predictor written against logs runs unchanged online.
+(docs/schema.md), so a predictor written against logs runs unchanged online.
 Ground-truth columns are present in simulated data and used only by :class:`Oracle`.
 
 Gaps. ``event`` counts braking events since the pad was installed, and it may skip
@@ -134,7 +134,7 @@ class Predictor(ABC):
 
     def get_state(self) -> tuple[dict[str, Any], dict[str, NDArray[Any]]]:
         """What fitting learned: JSON-able settings and named numpy arrays, so a fitted
-        predictor is saved without pickle (README "Fleet logs")."""
+        predictor is saved without pickle (docs/results/prognostics.md)."""
         raise NotImplementedError(f"{self.name}: this predictor cannot be saved")
 
     def set_state(self, meta: Mapping[str, Any], arrays: Mapping[str, NDArray[Any]]) -> None:

@@ -5,7 +5,7 @@ A downstream package (``baselines``, ``twin``, or a user's own) declares
 ``name = "module:factory"`` in that group, where ``factory(atlas, seed) -> Predictor``
 returns an unfitted predictor. Only the names are read until a predictor is asked for, so
 listing them imports neither torch nor the twin, and ``brake_env`` never imports its
-downstream packages (README "Architecture").
+downstream packages (docs/architecture.md).
 """
 
 from __future__ import annotations

@@ -1,5 +1,5 @@
-"""The prognostics evaluation over several seeds (``brakewear evaluate --seeds``; README
-"Running on a cluster").
+"""The prognostics evaluation over several seeds (``brakewear evaluate --seeds``;
+docs/cluster.md).
 
 Each seed is one :class:`~brake_env.runner.Unit`: make the predictors with that seed, fit
 them, run them over the test runs and score them (:func:`evaluate_seed`). Given logs, every

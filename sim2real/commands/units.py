@@ -1,5 +1,5 @@
 """``validate-gap``'s units: each validation case is one unit of
-:class:`brake_env.runner.Runner` (README "Running on a cluster"), seeded by its own number, so
+:class:`brake_env.runner.Runner` (docs/cluster.md), seeded by its own number, so
 its record is the same in this process and on Ray. With a :class:`~brake_env.runner.UnitStore`
 from :func:`open_store` each record is saved as its case finishes and an interrupted
 validation resumes from the finished cases.

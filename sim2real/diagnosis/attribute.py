@@ -1,5 +1,5 @@
 """Attribute the gap: fit each candidate on calibration runs, score it on held-out runs,
-name the winner or abstain (README "Sim-to-real gap").
+name the winner or abstain (docs/results/sim2real.md).
 
 Runs are split into calibration and held-out runs (never events). Each candidate's fitted
 parameter is chosen on calibration runs (a grid plus a parabola); its held-out

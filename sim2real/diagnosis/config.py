@@ -1,4 +1,4 @@
-"""Settings of the sim-to-real diagnosis (README "Sim-to-real gap")."""
+"""Settings of the sim-to-real diagnosis (docs/results/sim2real.md)."""
 
 from __future__ import annotations
 

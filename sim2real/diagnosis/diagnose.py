@@ -1,4 +1,4 @@
-"""Sim-to-real gap diagnosis: localise, attribute, quantify (README "Sim-to-real gap").
+"""Sim-to-real gap diagnosis: localise, attribute, quantify (docs/results/sim2real.md).
 
 Works on any event log in the README's event-log schema (ground-truth columns are never used,
 except the optional ``rul_events`` to score the twin's RUL in "quantify"). The steps are

@@ -1,4 +1,4 @@
-"""What a log must hold before the diagnosis starts its long work (README "Sim-to-real gap").
+"""What a log must hold before the diagnosis starts its long work (docs/results/sim2real.md).
 
 The event-log reader accepts any log that keeps the schema; the diagnosis needs more: runs
 to split into calibration and held-out runs, events to replay in each run, and the readings

@@ -1,5 +1,5 @@
 """Quantify the gap: held-out gap before and after adding the winning effect, per channel
-(jackknife over runs) and as the twin's RUL error (README "Sim-to-real gap").
+(jackknife over runs) and as the twin's RUL error (docs/results/sim2real.md).
 
 The RUL error comes from a callback (:func:`sim2real.diagnosis.rul.rul_scorer`) that gets the
 held-out and calibration parts of the log as :class:`LogPart` records, each with the

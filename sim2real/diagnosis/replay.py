@@ -1,7 +1,7 @@
 """Replay of logged braking events through the nominal model, optionally with one effect.
 
 The log gives each event's operating conditions; the pad state is not logged, so it is
-estimated from the log itself (README "Sim-to-real gap", localise):
+estimated from the log itself (docs/results/sim2real.md, localise):
 
 - each event's relative wear severity gives an *operational time* u
   (:func:`sim2real.diagnosis.logdata.operational_time`);

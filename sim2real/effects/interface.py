@@ -1,4 +1,4 @@
-"""Unmodelled effects: the plug-in interface (README "Sim-to-real gap", paper 5).
+"""Unmodelled effects: the plug-in interface (docs/results/sim2real.md, paper 5).
 
 An :class:`Effect` changes what the nominal model (atlas and twin) assumes in one of three
 places, named by its ``kind``:

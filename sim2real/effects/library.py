@@ -1,4 +1,4 @@
-"""The library of candidate effects and the registry of effects by name (README "Sim-to-real gap").
+"""The library of candidate effects and the registry of effects by name (docs/results/sim2real.md).
 
 Candidates drawn from the paper's own future work (section 5) and brake tribology:
 speed- and pressure-dependent friction, power-law and energy-based wear, heat partition to

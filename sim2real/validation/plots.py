@@ -1,5 +1,5 @@
 """Figures of a diagnosis (residual maps, candidate scores, before/after) and of a
-validation (confusion matrix, gap and RUL shrink), as PNG (README "Sim-to-real gap")."""
+validation (confusion matrix, gap and RUL shrink), as PNG (docs/results/sim2real.md)."""
 
 from __future__ import annotations
 

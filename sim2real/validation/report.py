@@ -1,5 +1,5 @@
 """Reports of a diagnosis and of a validation: terminal text, ``diagnosis.json`` and
-Markdown with the figures of :mod:`sim2real.validation.plots` (README "Sim-to-real gap")."""
+Markdown with the figures of :mod:`sim2real.validation.plots` (docs/results/sim2real.md)."""
 
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
-"""Plausibility checks of event logs and fitted parameters, before the long work (README
-"Event-log schema", "What is checked").
+"""Plausibility checks of event logs and fitted parameters, before the long work
+(docs/schema.md, "What is checked").
 
 The schema reader refuses what cannot be a braking event (a NaN event index, a negative
 mass). A log can pass it and still be implausible: temperatures in kelvin, speeds in m/s,

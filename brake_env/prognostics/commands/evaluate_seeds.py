@@ -1,5 +1,5 @@
 """``brakewear evaluate --seeds``: the evaluation once per seed, each seed a unit of work in
-this process or on Ray (``--workers``, ``--ray``; README "Running on a cluster"), saved
+this process or on Ray (``--workers``, ``--ray``; docs/cluster.md), saved
 under ``OUT/units/`` as it finishes so that an interrupted run (or a rerun with more seeds)
 redoes only the seeds not saved yet.
 

@@ -1,5 +1,5 @@
 """``brakewear fit`` and ``brakewear predict``: a predictor fitted once, run on any fleet log
-(README "Fleet logs").
+(docs/results/prognostics.md).
 
 ``fit`` fits one predictor on a training log and saves it without pickle
 (:mod:`brake_env.prognostics.persist`). ``predict`` runs a saved predictor over every pad of
@@ -13,7 +13,7 @@ where the predictor gives them and the events since installation:
 - ``fleet.png``: RUL bars with intervals, and each pad's RUL along its events.
 
 The pads run in units of a few pads (:mod:`~brake_env.prognostics.commands.predict_units`), in this
-process or on Ray (``--workers``, ``--ray``; README "Running on a cluster"), each saved
+process or on Ray (``--workers``, ``--ray``; docs/cluster.md), each saved
 under ``OUT/units/`` as it finishes: an interrupted predict run again resumes there.
 
 Both check what they are given (model header, format, atlas, log columns) before the long

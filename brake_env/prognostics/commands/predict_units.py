@@ -1,4 +1,4 @@
-"""``brakewear predict`` as independent units (README "Running on a cluster", "Fleet logs").
+"""``brakewear predict`` as independent units (docs/cluster.md, docs/results/prognostics.md).
 
 The pads of a fleet log are cut, in order of first appearance, into chunks of
 ``pads_per_unit``; each chunk is one :class:`~brake_env.runner.Unit` that runs the saved
