@@ -7,8 +7,8 @@ resolution a small MLP can separate (VecNormalize then centres it). The raw sens
 are left out: the predictor has already digested them, and six channels of noise only slow
 the agent's learning of the one comparison that matters
 (docs/results/single-pad.md). The same function builds the observation in the env
-(:class:`AgentFeatures`) and at the decision points of a pad set (:func:`pad_observations`), so an agent evaluated
-pad by pad sees exactly what it saw in training.
+(:class:`AgentFeatures`) and at the decision points of a pad set (:func:`pad_observations`),
+so an agent evaluated pad by pad sees exactly what it saw in training.
 """
 
 from __future__ import annotations
