@@ -100,8 +100,27 @@ class PadRegime:
         return float(self.wear.draw(rng, label, 1)[0]), label
 
 
+class RegimeFields:
+    """The wear regime of new pads, as every env's config holds it (fields ``regime``,
+    ``ood_share``, ``k_mean``, ``k_std``, ``ood_shift_sigma``)."""
+
+    regime: Literal["id", "ood", "mixed"]
+    ood_share: float
+    k_mean: float
+    k_std: float
+    ood_shift_sigma: float
+
+    @property
+    def pad_regime(self) -> PadRegime:
+        return PadRegime(self.regime, self.ood_share, self.wear)
+
+    @property
+    def wear(self) -> WearRegime:
+        return WearRegime(self.k_mean, self.k_std, self.ood_shift_sigma)
+
+
 @dataclass(frozen=True)
-class EnvConfig:
+class EnvConfig(RegimeFields):
     """Everything BrakeWear-v0 can be configured with (the keyword arguments of ``gym.make``).
 
     Attributes:
@@ -166,14 +185,6 @@ class EnvConfig:
         check_types(ENV_ID, self, {"costs": CostWeights, "noise": SensorNoise,
                                    "interpolate_layers": bool, "truth": bool})  # fmt: skip
         self.pad_regime  # validates the regime fields  # noqa: B018
-
-    @property
-    def pad_regime(self) -> PadRegime:
-        return PadRegime(self.regime, self.ood_share, self.wear)
-
-    @property
-    def wear(self) -> WearRegime:
-        return WearRegime(self.k_mean, self.k_std, self.ood_shift_sigma)
 
     @property
     def steps_per_episode(self) -> int:

@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 from typing import Any, Literal
 
 from brake_env._validate import check_nonnegative
-from brake_env.env.config import PRESETS, REGIMES, PadRegime
+from brake_env.env.config import PRESETS, REGIMES, RegimeFields
 from brake_env.env.shared import check_choice, check_int_fields, check_types, config_from_kwargs
 from brake_env.model.regime import WearRegime
 from brake_env.model.streams import SensorNoise
@@ -99,7 +99,7 @@ _INT_FIELDS = (
 
 
 @dataclass(frozen=True)
-class FleetConfig:
+class FleetConfig(RegimeFields):
     """Everything BrakeWearFleet-v0 can be configured with (the keyword arguments of
     ``gym.make``). Defaults and where they come from:
 
@@ -199,14 +199,6 @@ class FleetConfig:
         check_choice(ENV_ID, "regime", self.regime, REGIMES)
         check_types(ENV_ID, self, {"costs": FleetCosts, "noise": SensorNoise, "truth": bool})
         self.pad_regime  # validates the regime fields  # noqa: B018
-
-    @property
-    def pad_regime(self) -> PadRegime:
-        return PadRegime(self.regime, self.ood_share, self.wear)
-
-    @property
-    def wear(self) -> WearRegime:
-        return WearRegime(self.k_mean, self.k_std, self.ood_shift_sigma)
 
     def is_window(self, shift: int) -> bool:
         """Whether shift ``shift`` (0-based) is a scheduled window: the last of each period."""
