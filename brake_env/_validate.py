@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import numbers
 from collections.abc import Iterable, Mapping
 from typing import Any, TypeVar
 
@@ -12,9 +13,26 @@ import numpy as np
 T = TypeVar("T")
 
 
+def is_number(value: object) -> bool:
+    """Whether ``value`` is a real number: a Python int or float or a numpy integer or
+    floating scalar (``np.float32`` is no ``float`` subclass), never a bool of either kind."""
+    return isinstance(value, numbers.Real) and not isinstance(value, bool | np.bool_)
+
+
+def plain_numbers(obj: object) -> None:
+    """Store the numpy scalar fields of the frozen dataclass ``obj`` as the Python int,
+    float or bool they hold, so a config takes ``np.float32(600)`` wherever it takes
+    ``600.0`` and still compares, hashes and saves to JSON as one made of Python numbers.
+    Called first in ``__post_init__``; the checks then see Python values only."""
+    for f in dataclasses.fields(obj):  # type: ignore[arg-type]
+        value = getattr(obj, f.name)
+        if isinstance(value, np.integer | np.floating | np.bool_):
+            object.__setattr__(obj, f.name, value.item())
+
+
 def _value(obj: object, name: str) -> float:
     value = getattr(obj, name)
-    if isinstance(value, bool) or not isinstance(value, int | float):
+    if not is_number(value):
         raise TypeError(f"{type(obj).__name__}.{name} must be a number, got {value!r}")
     return float(value)
 

@@ -13,10 +13,7 @@ from typing import Any, Literal
 
 import numpy as np
 
-from brake_env._validate import (
-    check_nonnegative,
-    check_range,
-)
+from brake_env._validate import check_nonnegative, check_range, plain_numbers
 from brake_env.env.shared import check_choice, check_int_fields, check_types, config_from_kwargs
 from brake_env.model.regime import Label, WearRegime
 from brake_env.model.simulator import SensorNoise
@@ -48,6 +45,7 @@ class CostWeights:
     revenue: float = 0.0
 
     def __post_init__(self) -> None:
+        plain_numbers(self)
         check_nonnegative(self, *(f.name for f in dataclasses.fields(self)))
 
     @property
@@ -85,6 +83,7 @@ class PadRegime:
     wear: WearRegime = field(default_factory=WearRegime)
 
     def __post_init__(self) -> None:
+        plain_numbers(self)
         if self.kind not in REGIMES:
             raise ValueError(f"regime must be one of {list(REGIMES)}, got {self.kind!r}")
         check_range(self, "ood_share", 0.0, 1.0)
@@ -174,6 +173,7 @@ class EnvConfig(RegimeFields):
     pad_pool_seed: int = 0
 
     def __post_init__(self) -> None:
+        plain_numbers(self)
         check_int_fields(ENV_ID, self, (
             ("decision_interval", 1, MAX_DECISION_INTERVAL),
             ("episode_events", 2, 10**9),

@@ -24,6 +24,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from brake_env._validate import plain_numbers
 from brake_env.model.lookup import GridLookup, trapezoid_weights
 from brake_env.model.params import BrakeModel
 from brake_env.model.physics import EventModifier, critical_volume, end_of_life, simulate_events
@@ -63,6 +64,7 @@ class AtlasSpec:
     layer_step: float = 0.01
 
     def __post_init__(self) -> None:
+        plain_numbers(self)
         for name in ("n_speed", "n_mass", "n_slope"):
             n = getattr(self, name)
             if not isinstance(n, int) or not 2 <= n <= 200:

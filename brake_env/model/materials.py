@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from brake_env._validate import check_finite, check_positive
+from brake_env._validate import check_finite, check_positive, plain_numbers
 
 
 @dataclass(frozen=True)
@@ -40,6 +40,7 @@ class FrictionParams:
     mu4: float = 250.0
 
     def __post_init__(self) -> None:
+        plain_numbers(self)
         check_positive(self, "mu0", "mu2", "mu3")
         check_finite(self, "mu1", "mu4")
 
@@ -69,6 +70,7 @@ class HardnessParams:
     floor_mpa: float = 1.0
 
     def __post_init__(self) -> None:
+        plain_numbers(self)
         check_positive(self, "h0", "h3", "h6", "floor_mpa")
         check_finite(self, "h1", "h2", "h4", "h5", "h7")
 

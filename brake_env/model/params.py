@@ -16,6 +16,7 @@ from brake_env._validate import (
     check_positive,
     check_range,
     from_dict,
+    plain_numbers,
 )
 from brake_env.model.materials import FrictionParams, HardnessParams
 
@@ -37,6 +38,7 @@ class VehicleParams:
     rolling_resistance: float = 0.02
 
     def __post_init__(self) -> None:
+        plain_numbers(self)
         if not isinstance(self.n_braked_wheels, int) or self.n_braked_wheels < 1:
             raise ValueError(
                 "VehicleParams.n_braked_wheels must be a positive int,"
@@ -77,6 +79,7 @@ class BrakeParams:
     min_volume_frac: float = 0.05
 
     def __post_init__(self) -> None:
+        plain_numbers(self)
         if not isinstance(self.n_pads, int) or self.n_pads < 1:
             raise ValueError(f"BrakeParams.n_pads must be a positive int, got {self.n_pads!r}")
         check_positive(
@@ -116,6 +119,7 @@ class OperatingRange:
     slope_deg: tuple[float, float] = (0.0, 10.0)
 
     def __post_init__(self) -> None:
+        plain_numbers(self)
         for name, lo_limit, hi_limit in (
             ("speed_kmh", 0.1, 100.0),
             ("mass_kg", 100.0, 1e6),
@@ -160,6 +164,7 @@ class BrakeModel:
     n_steps: int = 48
 
     def __post_init__(self) -> None:
+        plain_numbers(self)
         if not isinstance(self.n_steps, int) or not 4 <= self.n_steps <= 100_000:
             raise ValueError(
                 f"BrakeModel.n_steps must be an int in [4, 100000], got {self.n_steps!r}"

@@ -14,7 +14,7 @@ from typing import Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from brake_env._validate import check_nonnegative, check_positive
+from brake_env._validate import check_nonnegative, check_positive, plain_numbers
 
 Label = Literal["id", "ood-slow", "ood-fast"]
 LABELS: tuple[Label, ...] = ("id", "ood-slow", "ood-fast")
@@ -38,6 +38,7 @@ class WearRegime:
     ood_shift_sigma: float = 6.0
 
     def __post_init__(self) -> None:
+        plain_numbers(self)
         check_positive(self, "k_mean", "k_std")
         check_nonnegative(self, "ood_shift_sigma")
 

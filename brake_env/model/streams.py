@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from brake_env._validate import check_nonnegative
+from brake_env._validate import check_nonnegative, plain_numbers
 
 F64 = NDArray[np.float64]
 # Measured channels in the order of the event-log schema and of the env's observation.
@@ -49,6 +49,7 @@ class SensorNoise:
     mass_kg: float = 0.0
 
     def __post_init__(self) -> None:
+        plain_numbers(self)
         check_nonnegative(
             self, "temp_c", "stop_dist_m", "energy_j", "slope_rad", "speed_kmh", "mass_kg"
         )
@@ -128,6 +129,7 @@ class AlternatingRoutes:
     block_events: int
 
     def __post_init__(self) -> None:
+        plain_numbers(self)
         if not isinstance(self.block_events, int) or self.block_events < 1:
             raise ValueError(
                 f"AlternatingRoutes.block_events must be an int >= 1, got {self.block_events!r}"

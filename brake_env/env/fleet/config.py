@@ -12,7 +12,7 @@ import dataclasses
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
-from brake_env._validate import check_nonnegative
+from brake_env._validate import check_nonnegative, is_number, plain_numbers
 from brake_env.env.config import PRESETS, REGIMES, RegimeFields
 from brake_env.env.shared import check_choice, check_int_fields, check_types, config_from_kwargs
 from brake_env.model.regime import WearRegime
@@ -75,6 +75,7 @@ class FleetCosts:
     deferred: float = 0.0
 
     def __post_init__(self) -> None:
+        plain_numbers(self)
         check_nonnegative(self, *(f.name for f in dataclasses.fields(self)))
 
 
@@ -185,6 +186,7 @@ class FleetConfig(RegimeFields):
     truth: bool = False
 
     def __post_init__(self) -> None:
+        plain_numbers(self)
         check_int_fields(ENV_ID, self, _INT_FIELDS)
         if self.hot_need + self.mild_need > self.n_vehicles:
             raise ValueError(
@@ -193,7 +195,7 @@ class FleetConfig(RegimeFields):
             )
         for name in ("breakdown_rate", "initial_age_max"):
             v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, int | float) or not 0.0 <= v < 1.0:
+            if not is_number(v) or not 0.0 <= v < 1.0:
                 raise ValueError(f"{ENV_ID}: {name} must be a number in [0, 1), got {v!r}")
         check_choice(ENV_ID, "preset", self.preset, PRESETS)
         check_choice(ENV_ID, "regime", self.regime, REGIMES)

@@ -14,12 +14,10 @@ from brake_env.env.fleet import spaces as fs
 from brake_env.env.fleet.config import COST_TERMS, ENV_ID, FleetConfig
 from brake_env.env.fleet.pads import FleetPads, ShiftEvents
 from brake_env.env.fleet.render import FleetFrame, ansi
-from brake_env.env.fleet.routes import ROUTES, UNIFORM, route_wear_model
+from brake_env.env.fleet.routes import UNIFORM, route_indices, route_wear_model
 from brake_env.env.fleet.shop import Plan, Workshop
 from brake_env.env.shared import check_render_mode, env_atlas
 from brake_env.model.atlas import Atlas
-
-ROUTE_INDEX = {r.name: i for i, r in enumerate(ROUTES)}
 
 
 class BrakeWearFleetEnv(gym.Env[NDArray[np.float32], NDArray[np.int64]]):
@@ -49,7 +47,9 @@ class BrakeWearFleetEnv(gym.Env[NDArray[np.float32], NDArray[np.int64]]):
     :meth:`action_masks` gives the flat mask sb3-contrib's MaskablePPO expects. Requests
     beyond the bays or the stock are **deferred**, duties a vehicle cannot take are
     **refused**, by the rule of :mod:`brake_env.env.fleet.shop`; both are listed in
-    ``info`` and counted in ``info["counts"]`` and ``info["costs"]["deferred"]``.
+    ``info`` and counted in ``info["counts"]`` and ``info["costs"]["deferred"]``. An action
+    is an integer array (any numpy integer dtype) or a list of ints; floats, bools, NaN,
+    strings or values out of range raise one ``ValueError`` naming the vehicle and value.
 
     ## Observation Space
 
@@ -187,7 +187,7 @@ class BrakeWearFleetEnv(gym.Env[NDArray[np.float32], NDArray[np.int64]]):
             raise RuntimeError(f"{ENV_ID}: call reset() first")
         if self.shift >= self.config.episode_shifts:
             raise RuntimeError(f"{ENV_ID}: the episode is over; call reset()")
-        duty, quantity = self._parse(action)
+        duty, quantity = fs.parse_action(self.config, action)
         c, shop, pads = self.config, self.shop, self.pads
         window = c.is_window(self.shift)
         down_failed = int(((shop.down > 0) & shop.failed_down).sum())  # out this shift
@@ -244,8 +244,8 @@ class BrakeWearFleetEnv(gym.Env[NDArray[np.float32], NDArray[np.int64]]):
         episode is not changed. For the oracle and evaluation, never for a policy."""
         if self.pads is None:
             raise RuntimeError(f"{ENV_ID}: call reset() first")
-        r = ROUTE_INDEX[route] if isinstance(route, str) else route
-        return self.pads.events_to_failure(np.asarray(r, dtype=np.int64))
+        r = route_indices(route, self.config.n_vehicles, f"{ENV_ID}: true_rul")
+        return self.pads.events_to_failure(r)
 
     def truth(self) -> dict[str, NDArray[Any]]:
         """True state of every pad: ``volume_frac``, ``wear_coeff`` (K), ``layer`` (atlas
@@ -291,17 +291,6 @@ class BrakeWearFleetEnv(gym.Env[NDArray[np.float32], NDArray[np.int64]]):
         age = self._age_rng.random(c.n_vehicles) * c.initial_age_max * clock.life(pads.k)
         age = age.astype(np.int64)
         pads.start_at(age, clock.volume_at_work(pads.k * age))
-
-    def _parse(self, action: Any) -> tuple[NDArray[np.int64], int]:
-        a = np.asarray(action)
-        if a.shape != self.action_space.shape or not np.issubdtype(a.dtype, np.integer):
-            raise ValueError(
-                f"{ENV_ID}: action must be {len(self._actions.nvec)} integers"
-                f" (a duty per vehicle, then the order), got {action!r}"
-            )
-        if not self.action_space.contains(a.astype(self.action_space.dtype)):
-            raise ValueError(f"{ENV_ID}: action {a.tolist()} is outside {self.action_space}")
-        return a[:-1].astype(np.int64), int(a[-1])
 
     def _counts(
         self, plan: Plan, ev: ShiftEvents, fitted: NDArray[np.bool_], broke: NDArray[np.bool_],

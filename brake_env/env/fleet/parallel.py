@@ -20,6 +20,7 @@ Needs ``pettingzoo`` (the ``fleet`` extra).
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
@@ -29,9 +30,10 @@ from pettingzoo import ParallelEnv
 
 from brake_env.env.fleet.config import FleetConfig
 from brake_env.env.fleet.env import BrakeWearFleetEnv
-from brake_env.env.fleet.spaces import split_observation
+from brake_env.env.fleet.spaces import as_int, split_observation
 
 STORE = "store"
+NAME = "brakewear_fleet_v0"
 
 
 class BrakeWearFleetParallelEnv(ParallelEnv[str, dict[str, NDArray[Any]], int]):
@@ -43,7 +45,7 @@ class BrakeWearFleetParallelEnv(ParallelEnv[str, dict[str, NDArray[Any]], int]):
         **kwargs: Fields of :class:`FleetConfig`, and ``atlas``.
     """
 
-    metadata = {"name": "brakewear_fleet_v0", "render_modes": ["ansi", "rgb_array"]}  # noqa: RUF012
+    metadata = {"name": NAME, "render_modes": ["ansi", "rgb_array"]}  # noqa: RUF012
 
     def __init__(
         self, config: FleetConfig | None = None, render_mode: str | None = None, **kwargs: Any
@@ -99,15 +101,27 @@ class BrakeWearFleetParallelEnv(ParallelEnv[str, dict[str, NDArray[Any]], int]):
         dict[str, bool],
         dict[str, dict[str, Any]],
     ]:  # fmt: skip
-        """Agents missing from ``actions`` park (a vehicle) or order nothing (the store)."""
-        unknown = sorted(set(actions) - set(self.agents))
+        """Agents missing from ``actions`` park (a vehicle) or order nothing (the store).
+
+        An action is an integer (a Python int, a numpy integer scalar or a 0-d integer
+        array) in the agent's ``Discrete`` space; anything else (``2.9``, ``"1"``,
+        ``True``, NaN, None, an array) raises one ``ValueError`` naming the agent and the
+        value, never truncated to a neighbouring action."""
+        if not self.agents:
+            over = "" if self.env.pads is None else " (the episode is over)"
+            raise RuntimeError(f"{NAME}: call reset() first{over}")
+        if not isinstance(actions, Mapping):
+            raise ValueError(f"{NAME}: actions must be a dict of agent to action, got {actions!r}")
+        unknown = sorted(set(actions) - set(self.agents), key=str)
         if unknown:
-            raise ValueError(f"brakewear_fleet_v0: actions for unknown or done agents {unknown}")
-        joint = np.full(self.n + 1, 2, dtype=np.int64)  # park
-        joint[-1] = int(actions.get(STORE, 0))
-        for v, agent in enumerate(self.possible_agents[:-1]):
+            raise ValueError(
+                f"{NAME}: actions for unknown or done agents {unknown} (live agents: {self.agents})"
+            )
+        joint = np.full(self.n + 1, 2, dtype=np.int64)  # park...
+        joint[-1] = 0  # ...and order nothing
+        for i, agent in enumerate(self.possible_agents):
             if agent in actions:
-                joint[v] = int(actions[agent])
+                joint[i] = self._action(agent, actions[agent])
         obs, reward, terminated, truncated, info = self.env.step(joint)
         observations, infos = self._observations(obs), self._infos(info)
         rewards = dict.fromkeys(self.agents, float(reward))
@@ -116,6 +130,18 @@ class BrakeWearFleetParallelEnv(ParallelEnv[str, dict[str, NDArray[Any]], int]):
         if terminated or truncated:
             self.agents = []
         return observations, rewards, terms, truncs, infos
+
+    def _action(self, agent: str, value: object) -> int:
+        n = self._act_spaces[agent].n
+        x = as_int(value)
+        if x is None:
+            raise ValueError(
+                f"{NAME}: {agent}'s action {value!r} is not an integer; it must be an int"
+                f" in 0-{n - 1} (Discrete({n}))"
+            )
+        if not 0 <= x < n:
+            raise ValueError(f"{NAME}: {agent}'s action {x} is outside 0-{n - 1} (Discrete({n}))")
+        return x
 
     def render(self) -> Any:
         return self.env.render()

@@ -83,6 +83,27 @@ UNIFORM = Route("uniform", (4.0, 15.0), (42.0, 54.0), (0.0, 10.0))
 # Route index of each duty action (0 hot, 1 mild); the envelope's mix is index 2 (used to
 # age the first pads as BrakeWear-v0's pads age, and in tests).
 ROUTES = (HOT, MILD, UNIFORM)
+ROUTE_INDEX = {r.name: i for i, r in enumerate(ROUTES)}
+
+
+def route_indices(route: object, n_vehicles: int, who: str) -> NDArray[np.int64]:
+    """``route`` (a name of :data:`ROUTES`, or route indices: one, or one per vehicle) as
+    route indices; else one ``ValueError`` from ``who`` listing the valid routes."""
+    if isinstance(route, str):
+        if route not in ROUTE_INDEX:
+            raise ValueError(f"{who}: unknown route {route!r}; valid are {list(ROUTE_INDEX)}")
+        return np.asarray(ROUTE_INDEX[route], dtype=np.int64)
+    r = np.asarray(route)
+    if (
+        r.dtype.kind not in "iu"
+        or r.shape not in ((), (n_vehicles,))
+        or ((r < 0) | (r >= len(ROUTES))).any()
+    ):
+        raise ValueError(
+            f"{who}: route must be one of {list(ROUTE_INDEX)}, or route indices"
+            f" 0-{len(ROUTES) - 1} (one, or one per vehicle), got {route!r}"
+        )
+    return r.astype(np.int64)
 
 
 def route_table(atlas: Atlas, routes: tuple[Route, ...] = ROUTES) -> tuple[F64, F64]:

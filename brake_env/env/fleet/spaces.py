@@ -11,12 +11,13 @@ hot, 1 mild, 2 park, 3 service), then the reorder quantity.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from gymnasium import spaces
 from numpy.typing import NDArray
 
-from brake_env.env.fleet.config import FleetConfig
+from brake_env.env.fleet.config import ENV_ID, FleetConfig
 from brake_env.env.fleet.pads import ShiftEvents
 from brake_env.env.fleet.shop import Workshop
 from brake_env.model.streams import SENSOR_CHANNELS
@@ -57,6 +58,52 @@ def observation_space(config: FleetConfig) -> spaces.Box:
 
 def action_space(config: FleetConfig) -> spaces.MultiDiscrete:
     return spaces.MultiDiscrete([4] * config.n_vehicles + [config.max_order + 1])
+
+
+def parse_action(config: FleetConfig, action: Any) -> tuple[NDArray[np.int64], int]:
+    """The duties and the order of ``action``: an integer array (any numpy integer dtype)
+    or a list or tuple of ints (Python or numpy), nothing else; one ``ValueError`` naming
+    the first bad vehicle (or the order) and its value."""
+    n, max_order = config.n_vehicles, config.max_order
+    what = f"{n + 1} integers (a duty 0-3 per vehicle, then the order 0-{max_order})"
+    if isinstance(action, np.ndarray):
+        if action.shape != (n + 1,):
+            raise ValueError(f"{ENV_ID}: action must be {what}, got shape {action.shape}")
+        # Python ints (no wrap-around of a huge uint64), or numpy scalars that show their
+        # dtype in the message.
+        values = action.tolist() if action.dtype.kind in "iu" else list(action)
+    elif isinstance(action, list | tuple):
+        if len(action) != n + 1:
+            raise ValueError(f"{ENV_ID}: action must be {what}, got {len(action)}: {action!r}")
+        values = list(action)
+    else:
+        raise ValueError(f"{ENV_ID}: action must be {what}, got {action!r}")
+    out = np.empty(n + 1, dtype=np.int64)
+    for i, value in enumerate(values):
+        who = f"vehicle {i}'s duty" if i < n else "the order (last entry)"
+        x = as_int(value)
+        if x is None:
+            raise ValueError(
+                f"{ENV_ID}: {who} {value!r} is not an integer; the action must be {what}"
+            )
+        high = 3 if i < n else max_order
+        if not 0 <= x <= high:
+            raise ValueError(f"{ENV_ID}: {who} {x} is outside 0-{high}; the action is {what}")
+        out[i] = x
+    return out[:-1], int(out[-1])
+
+
+def as_int(value: object) -> int | None:
+    """``value`` as a Python int if it is an integer: a Python int, a numpy integer scalar
+    or a 0-d integer array; else None. Floats (even 2.0), bools, NaN, strings, None and
+    larger arrays are not integers: an action is never guessed at by truncation."""
+    if isinstance(value, bool | np.bool_):
+        return None
+    if isinstance(value, int | np.integer):
+        return int(value)
+    if isinstance(value, np.ndarray) and value.shape == () and value.dtype.kind in "iu":
+        return int(value)
+    return None
 
 
 def split_observation(obs: F32, n_vehicles: int) -> tuple[F32, F32]:

@@ -41,7 +41,9 @@ class FleetRULObservation(
     (:func:`~brake_env.env.fleet.routes.route_wear_model`).
 
     A predictor without an interval (the oracle, the MLP) gives its estimate as both
-    bounds: an interval of zero width.
+    bounds: an interval of zero width. A NaN estimate, or an interval not around its mean
+    (lower > mean or mean > upper), raises a ``ValueError`` naming the predictor, the
+    vehicle and the values, rather than reaching the observation.
 
     Observation: the base observation, then ``len(fields)`` values per vehicle (vehicle
     order, fields in the given order), each in [0, 1e7] events.
@@ -127,6 +129,7 @@ class FleetRULObservation(
             x[new] = np.nan
 
     def _store(self, est: RULEstimate, vehicles: NDArray[np.intp]) -> None:
+        self._check(est, vehicles)
         for i, f in enumerate(self.fields):
             x = getattr(est, f)
             # A point predictor (the oracle, the MLP) has no interval: its bounds are its
@@ -136,6 +139,35 @@ class FleetRULObservation(
             x = getattr(est, f)
             if x is not None:
                 self._extra.setdefault(f, np.full(self.n, np.nan))[vehicles] = x
+
+    def _check(self, est: RULEstimate, vehicles: NDArray[np.intp]) -> None:
+        """Refuse an estimate the observation cannot hold honestly: a NaN RUL or bound
+        (outside the space; clipping does not mend it) or an interval not around its mean
+        (lower > mean or mean > upper). Infinite RULs pass: they are clipped into
+        [0, 1e7] events, as any wild extrapolation is."""
+        got = {
+            f: np.asarray(x, dtype=np.float64)
+            for f in ESTIMATE_FIELDS
+            if (x := getattr(est, f)) is not None
+        }
+        mean = got["rul_mean"]
+        nan = np.zeros(mean.shape, dtype=bool)
+        for x in got.values():
+            nan |= np.isnan(x)
+        inverted = np.zeros_like(nan)
+        if "rul_lower" in got:
+            inverted |= got["rul_lower"] > mean
+        if "rul_upper" in got:
+            inverted |= mean > got["rul_upper"]
+        if not (nan | inverted).any():
+            return
+        i = int(np.flatnonzero(nan | inverted)[0])
+        kind = "a NaN RUL" if nan[i] else "an inverted interval (lower > mean or mean > upper)"
+        shown = ", ".join(f"{f}={float(x[i])!r}" for f, x in got.items())
+        raise ValueError(
+            f"FleetRULObservation: predictor {predictor_name(self.predictor)} gave {kind}"
+            f" for vehicle {int(vehicles[i])}: {shown} [events]"
+        )
 
     def _info(self) -> dict[str, NDArray[np.float64]]:
         out = {f: self._est[:, i].copy() for i, f in enumerate(self.fields)}
@@ -189,6 +221,13 @@ class ExpectedRULObservation(
     def observation(self, observation: NDArray[np.float32]) -> NDArray[np.float32]:
         est = np.repeat(np.clip(self.rul(), 0.0, _RUL_HIGH), len(self.fields))
         return np.concatenate([observation, est]).astype(np.float32)
+
+
+def predictor_name(predictor: object) -> str:
+    """A predictor as messages name it: its ``name`` and class (the class alone if it has
+    no name)."""
+    name, cls = getattr(predictor, "name", None), type(predictor).__name__
+    return f"{name!r} ({cls})" if isinstance(name, str) and name and name != cls else cls
 
 
 def shift_batch(
