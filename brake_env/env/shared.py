@@ -77,3 +77,12 @@ def env_atlas(atlas: Atlas | str | os.PathLike[str] | None, preset: str) -> Atla
     if atlas is None:
         return default_atlas(preset)
     return atlas if isinstance(atlas, Atlas) else Atlas.load(atlas)
+
+
+def require_env(wrapper: str, env: Any, kind: type, env_id: str) -> None:
+    """A wrapper made for one env refuses another, naming both (instead of failing later on
+    an attribute the other env does not have)."""
+    if not isinstance(env.unwrapped, kind):
+        raise TypeError(
+            f"{wrapper} wraps {env_id} ({kind.__name__}), got {type(env.unwrapped).__name__}"
+        )

@@ -13,7 +13,9 @@ from gymnasium.vector import VectorEnv, VectorObservationWrapper
 from gymnasium.vector.utils import batch_space
 from numpy.typing import NDArray
 
+from brake_env.env.brake_wear import BrakeWearEnv
 from brake_env.env.pads import PadLife
+from brake_env.env.shared import require_env
 from brake_env.prognostics.fleet import Fleet, LoopFleet, concat_events, vectorises
 from brake_env.prognostics.protocol import EventBatch, RULEstimate, RULPredictor
 
@@ -59,6 +61,7 @@ class RULObservation(gym.ObservationWrapper[NDArray[np.float32], Any, NDArray[np
         estimate_cache: WeakKeyDictionary[PadLife, RULEstimate] | None = None,
     ) -> None:
         super().__init__(env)
+        require_env("RULObservation", env, BrakeWearEnv, "BrakeWear-v0")
         self.observation_space = _with_estimates("RULObservation", env.observation_space, fields)
         self.predictor = predictor
         self.fields = tuple(fields)

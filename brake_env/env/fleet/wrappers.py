@@ -11,8 +11,11 @@ import numpy as np
 from gymnasium import spaces
 from numpy.typing import NDArray
 
+from brake_env.env.fleet.config import ENV_ID
+from brake_env.env.fleet.env import BrakeWearFleetEnv
 from brake_env.env.fleet.pads import ShiftEvents
 from brake_env.env.fleet.routes import HOT, UNIFORM, route_wear_model
+from brake_env.env.shared import require_env
 from brake_env.model.streams import SENSOR_CHANNELS
 from brake_env.prognostics.fleet import Fleet, LoopFleet, vectorises
 from brake_env.prognostics.protocol import EventBatch, RULEstimate, RULPredictor
@@ -61,6 +64,7 @@ class FleetRULObservation(
         fields: tuple[str, ...] = ESTIMATE_FIELDS,
     ) -> None:
         super().__init__(env)
+        require_env("FleetRULObservation", env, BrakeWearFleetEnv, ENV_ID)
         bad = [f for f in fields if f not in ESTIMATE_FIELDS]
         if bad or not fields:
             raise ValueError(f"FleetRULObservation: fields must be among {ESTIMATE_FIELDS}")
@@ -198,6 +202,7 @@ class ExpectedRULObservation(
         fields: tuple[str, ...] = ("rul_mean",),
     ) -> None:
         super().__init__(env)
+        require_env("ExpectedRULObservation", env, BrakeWearFleetEnv, ENV_ID)
         if not fields or any(f not in ESTIMATE_FIELDS for f in fields):
             raise ValueError(f"ExpectedRULObservation: fields must be among {ESTIMATE_FIELDS}")
         base = env.observation_space

@@ -144,3 +144,18 @@ def test_vector_wrapper_rejects_what_the_predictor_cannot_give(atlas: Atlas) -> 
         venv.reset(seed=0)
     with pytest.raises(ValueError, match="fields must be among"):
         RULVectorObservation(BrakeWearVectorEnv(2, atlas=atlas, **FAST), Oracle(), ("volume",))
+
+
+def test_a_wrapper_made_for_one_env_names_the_other():
+    import gymnasium as gym
+
+    from brake_env.env.fleet.wrappers import ExpectedRULObservation, FleetRULObservation
+    from brake_env.prognostics.protocol import Oracle
+
+    with pytest.raises(TypeError, match=r"RULObservation wraps BrakeWear-v0.*got BrakeWearFleetEnv"):
+        RULObservation(
+            gym.make("BrakeWearFleet-v0", n_vehicles=2, hot_need=1, mild_need=1), Oracle()
+        )
+    for wrapper in (lambda e: FleetRULObservation(e, Oracle()), ExpectedRULObservation):
+        with pytest.raises(TypeError, match=r"wraps BrakeWearFleet-v0.*got BrakeWearEnv"):
+            wrapper(gym.make("BrakeWear-v0"))
