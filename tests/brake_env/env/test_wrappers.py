@@ -152,7 +152,7 @@ def test_a_wrapper_made_for_one_env_names_the_other():
     from brake_env.env.fleet.wrappers import ExpectedRULObservation, FleetRULObservation
     from brake_env.prognostics.protocol import Oracle
 
-    with pytest.raises(TypeError, match=r"RULObservation wraps BrakeWear-v0.*got BrakeWearFleetEnv"):
+    with pytest.raises(TypeError, match=r"RULObservation wraps BrakeWear-v0.*got BrakeWearFleet"):
         RULObservation(
             gym.make("BrakeWearFleet-v0", n_vehicles=2, hot_need=1, mild_need=1), Oracle()
         )
