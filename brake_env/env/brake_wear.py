@@ -10,11 +10,11 @@ import numpy as np
 from gymnasium import spaces
 from numpy.typing import NDArray
 
+from brake_env.env.atlases import default_atlas
 from brake_env.env.config import EnvConfig
 from brake_env.env.pads import PadLife, PadService
 from brake_env.env.render import Dashboard
-from brake_env.model.atlas import Atlas, AtlasSpec, cached_atlas
-from brake_env.model.params import BrakeModel
+from brake_env.model.atlas import Atlas
 from brake_env.prognostics.protocol import MEASURED
 
 KEEP, REPLACE = 0, 1
@@ -24,7 +24,6 @@ OBS_NAMES = (*MEASURED, "events_since_install")
 _OBS_LOW = np.array([0.0, 0.0, -np.pi / 2, 0.0, -273.15, 0.0, 0.0], dtype=np.float32)
 _OBS_HIGH = np.array([200.0, 1e6, np.pi / 2, 1e9, 3000.0, 1e4, 0.0], dtype=np.float32)
 
-_ATLASES: dict[tuple[str, str | None], Atlas] = {}
 NO_HUMAN_MODE = (
     "BrakeWear-v0 has no 'human' render mode (its render_modes are 'ansi' and 'rgb_array');"
     " use render_mode='rgb_array' and show the frames, or wrap that env in"
@@ -63,14 +62,6 @@ def make_env(**kwargs: Any) -> gym.Env[Any, Any]:
     if isinstance(mode, str) and mode.endswith("_list") and mode[:-5] in ("ansi", "rgb_array"):
         return gym.wrappers.RenderCollection(BrakeWearEnv(**{**kwargs, "render_mode": mode[:-5]}))
     return BrakeWearEnv(**kwargs)
-
-
-def default_atlas(preset: str = "hot-duty", cache_dir: str | None = None) -> Atlas:
-    """The preset's atlas from the on-disk cache (built once, ~1 s), shared in the process."""
-    key = (preset, cache_dir or os.environ.get("BRAKEWEAR_CACHE_DIR"))
-    if key not in _ATLASES:
-        _ATLASES[key] = cached_atlas(AtlasSpec(model=BrakeModel.preset(preset)), cache_dir)
-    return _ATLASES[key]
 
 
 def observation_space(config: EnvConfig) -> spaces.Box:

@@ -7,12 +7,20 @@ every other step). Here the truth is promised, not computed: the first read of a
 ``life_left``) simulates that pad ahead, on a copy of its stream, exactly as installation
 did before; nothing else changes, and an env that never reads the truth never pays it.
 
+Copying is not reading: ``copy.deepcopy`` (SB3's ``DummyVecEnv`` deep-copies every step's
+infos), ``copy.copy`` and pickling (``SubprocVecEnv``, Ray, saving rollouts) keep the truth
+pending, so a copy costs what the step's events cost; the copy's truth, when read, is
+simulated then and equals the original's. An object already read is copied with its values.
+
 Each takes ``life``: a callable returning the pad's events to failure (``PadLife.n_events``,
-cached by the pad), so this module needs nothing of the pad but that.
+cached by the pad), so this module needs nothing of the pad but that. A deep copy shares
+it; a pickle pickles it (:class:`brake_env.env.pad_life.LifeOf` pickles the pad's seeds,
+not the pad).
 """
 
 from __future__ import annotations
 
+import copy
 from collections.abc import Callable, ItemsView, Iterator, ValuesView
 from typing import Any
 
@@ -58,10 +66,24 @@ class PendingRULEvents(EventBatch):
         cols.update((k, getattr(self, k)[sl]) for k in ("volume_frac", "wear_coeff"))
         return PendingRULEvents.of(cols, self.__dict__["_life"], self.__dict__["_start"] + start)
 
+    def __deepcopy__(self, memo: dict[int, Any]) -> EventBatch:
+        """A deep copy of the events, still pending (sharing ``life``, not calling it); a
+        plain EventBatch once read."""
+        if self.__dict__["_rul"] is not None:
+            fields = EventBatch.__dataclass_fields__
+            return _plain_batch({k: copy.deepcopy(getattr(self, k), memo) for k in fields})
+        new = object.__new__(type(self))
+        for k, v in self.__dict__.items():
+            object.__setattr__(new, k, v if k == "_life" else copy.deepcopy(v, memo))
+        return new
+
     def __reduce__(self) -> tuple[Any, ...]:
-        """Pickled as a plain EventBatch, the truth computed."""
-        cols = {k: getattr(self, k) for k in EventBatch.__dataclass_fields__}
-        return (_plain_batch, (cols,))
+        """Pickled pending (``life`` pickled, not called); as a plain EventBatch once read."""
+        if self.__dict__["_rul"] is not None:
+            cols = {k: getattr(self, k) for k in EventBatch.__dataclass_fields__}
+            return (_plain_batch, (cols,))
+        cols = {k: v for k, v in self.__dict__.items() if not k.startswith("_")}
+        return (PendingRULEvents.of, (cols, self.__dict__["_life"], self.__dict__["_start"]))
 
 
 def _plain_batch(cols: dict[str, Any]) -> EventBatch:
@@ -70,7 +92,8 @@ def _plain_batch(cols: dict[str, Any]) -> EventBatch:
 
 class LazyTruth(dict[str, Any]):
     """``info["truth"]``: ``rul_events`` and ``life_events`` filled in when first read (by
-    key, ``get``, iteration, ``items``, ``values``, comparison, copy or pickling).
+    key, ``get``, iteration, ``items``, ``values``, comparison or ``repr``); ``copy()``,
+    ``copy.deepcopy`` and pickling keep them pending.
 
     Args:
         values: Every key, those two set to None until read.
@@ -123,8 +146,17 @@ class LazyTruth(dict[str, Any]):
         return super().__repr__()
 
     def copy(self) -> dict[str, Any]:
-        self._resolve()
-        return dict(super().items())
+        """A shallow copy, pending while this one is (sharing ``life``)."""
+        if self._life is None:
+            return dict(super().items())
+        return LazyTruth(dict(super().items()), self._life, self._pos)
+
+    def __deepcopy__(self, memo: dict[int, Any]) -> dict[str, Any]:
+        values = {k: copy.deepcopy(v, memo) for k, v in super().items()}
+        return values if self._life is None else LazyTruth(values, self._life, self._pos)
 
     def __reduce__(self) -> tuple[Any, ...]:
-        return (dict, (self.copy(),))
+        """Pickled pending (``life`` pickled, not called); as a plain dict once read."""
+        if self._life is None:
+            return (dict, (dict(super().items()),))
+        return (LazyTruth, (dict(super().items()), self._life, self._pos))
