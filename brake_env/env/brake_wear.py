@@ -38,7 +38,7 @@ def check_action(action: Any) -> int:
     if isinstance(action, np.ndarray | np.generic) and action.shape != ():
         raise ValueError(
             "BrakeWear-v0: step() takes one action, 0 (keep) or 1 (replace), not an array of"
-            f" shape {action.shape} (a vector env takes one per sub-environment)"
+            f" shape {action.shape}: got {action!r} (a vector env takes one per sub-environment)"
         )
     if not isinstance(action, int | np.integer | np.ndarray) or (
         isinstance(action, np.ndarray) and action.dtype.kind not in "iu"

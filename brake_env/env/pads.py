@@ -192,7 +192,7 @@ class PadService:
         """Replace the pad first if asked, then serve the step's events. Returns the info."""
         n = min(self.config.decision_interval, self.config.episode_events - self.events_done)
         if n <= 0:
-            raise RuntimeError("the episode is over; call reset()")
+            raise RuntimeError("BrakeWear-v0: the episode is over; call reset()")
         return self._serve(n, replaced=replace)
 
     @property

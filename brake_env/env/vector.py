@@ -61,6 +61,7 @@ class BrakeWearVectorEnv(VectorEnv[NDArray[np.float32], NDArray[np.int64], NDArr
         self._services = [PadService(atlas, self.config) for _ in range(num_envs)]
         self._rngs = [seeding.np_random()[0] for _ in range(num_envs)]
         self._autoreset = np.zeros(num_envs, dtype=bool)
+        self._started = False
         self.spec = None
 
     def reset(
@@ -80,16 +81,26 @@ class BrakeWearVectorEnv(VectorEnv[NDArray[np.float32], NDArray[np.int64], NDArr
                 self._rngs[i], _ = seeding.np_random(s)
             infos = self._add_info(infos, self._services[i].start(self._rngs[i]), i)
         self._autoreset[:] = False
+        self._started = True
         return self._observations(), infos
 
     def step(
         self, actions: NDArray[np.int64]
     ) -> tuple[NDArray[np.float32], NDArray[Any], NDArray[Any], NDArray[Any], dict[str, Any]]:
-        actions = np.asarray(actions)
-        if actions.shape != (self.num_envs,) or not np.isin(actions, (0, 1)).all():
+        if not self._started:
+            raise RuntimeError("BrakeWear-v0: call reset() before step()")
+        arr = np.asarray(actions) if isinstance(actions, np.ndarray | list | tuple) else None
+        if (
+            arr is None
+            or arr.shape != (self.num_envs,)
+            or arr.dtype.kind not in "iu"
+            or not np.isin(arr, (0, 1)).all()
+        ):
             raise ValueError(
-                f"BrakeWear-v0: actions must be {self.num_envs} values in {{0, 1}}, got {actions!r}"
+                f"BrakeWear-v0: actions must be {self.num_envs} integers in {{0, 1}} (0 keep, 1"
+                f" replace; an int array of shape ({self.num_envs},)), got {actions!r}"
             )
+        actions = arr
         rewards = np.zeros(self.num_envs)
         truncs = np.zeros(self.num_envs, dtype=bool)
         infos: dict[str, Any] = {}
