@@ -98,7 +98,10 @@ class BrakeWearFleetEnv(gym.Env[NDArray[np.float32], NDArray[np.int64]]):
     ## Episode End
 
     Never terminated (failures are repaired and the mine goes on). Truncated after
-    ``episode_shifts`` shifts.
+    ``episode_shifts`` shifts. ``gym.make`` also adds a TimeLimit of the registered
+    ``max_episode_steps`` (730, the default ``episode_shifts``): with more shifts, pass
+    ``max_episode_steps`` as well (``gym.make(id, episode_shifts=1000,
+    max_episode_steps=1000)``), or the episode is cut at 730; fewer need nothing.
 
     ## Info
 
@@ -248,6 +251,11 @@ class BrakeWearFleetEnv(gym.Env[NDArray[np.float32], NDArray[np.int64]]):
         episode is not changed. For the oracle and evaluation, never for a policy."""
         if self.pads is None:
             raise RuntimeError(f"{ENV_ID}: call reset() first")
+        if isinstance(route, str) and route not in ROUTE_INDEX:
+            raise ValueError(
+                f"{ENV_ID}: true_rul route must be one of {list(ROUTE_INDEX)} (or route"
+                f" indices), got {route!r}"
+            )
         r = ROUTE_INDEX[route] if isinstance(route, str) else route
         return self.pads.events_to_failure(np.asarray(r, dtype=np.int64))
 
