@@ -21,7 +21,7 @@ not the pad).
 from __future__ import annotations
 
 import copy
-from collections.abc import Callable, ItemsView, Iterator, ValuesView
+from collections.abc import Callable, ItemsView, Iterator, KeysView, ValuesView
 from typing import Any
 
 import numpy as np
@@ -90,10 +90,67 @@ def _plain_batch(cols: dict[str, Any]) -> EventBatch:
     return EventBatch(**cols)
 
 
-class LazyTruth(dict[str, Any]):
-    """``info["truth"]``: ``rul_events`` and ``life_events`` filled in when first read (by
-    key, ``get``, iteration, ``items``, ``values``, comparison or ``repr``); ``copy()``,
-    ``copy.deepcopy`` and pickling keep them pending.
+class _PendingDict(dict[str, Any]):
+    """A dict whose ``_LAZY_KEYS`` are filled in by ``_resolve`` when first read (by key,
+    ``in``, ``get``, iteration, ``keys``, ``items``, ``values``, comparison or ``repr``)."""
+
+    def _resolve(self) -> None:
+        raise NotImplementedError
+
+    @property
+    def pending(self) -> bool:
+        """Its truth is not read yet."""
+        raise NotImplementedError
+
+    def __getitem__(self, key: str) -> Any:
+        if key in _LAZY_KEYS:
+            self._resolve()
+        return super().__getitem__(key)
+
+    def __contains__(self, key: object) -> bool:
+        if key in _LAZY_KEYS:
+            self._resolve()
+        return super().__contains__(key)
+
+    def get(self, key: str, default: Any = None) -> Any:
+        return self[key] if key in self else default  # noqa: SIM401 (self.get is this)
+
+    def __iter__(self) -> Iterator[str]:  # also keeps {**truth} and dict(truth) honest
+        self._resolve()
+        return super().__iter__()
+
+    def keys(self) -> KeysView[str]:  # type: ignore[override]
+        self._resolve()
+        return super().keys()
+
+    def items(self) -> ItemsView[str, Any]:  # type: ignore[override]
+        self._resolve()
+        return super().items()
+
+    def values(self) -> ValuesView[Any]:  # type: ignore[override]
+        self._resolve()
+        return super().values()
+
+    def __eq__(self, other: object) -> bool:
+        self._resolve()
+        if isinstance(other, _PendingDict):
+            other._resolve()
+        return super().__eq__(other)
+
+    __hash__ = None
+
+    def __repr__(self) -> str:
+        self._resolve()
+        return super().__repr__()
+
+    def _known(self) -> dict[str, Any]:
+        """Its values so far, nothing read."""
+        return dict(super().items())
+
+
+class LazyTruth(_PendingDict):
+    """``info["truth"]``: ``rul_events`` and ``life_events`` filled in when first read;
+    ``copy()``, ``copy.deepcopy`` and pickling keep them pending.
 
     Args:
         values: Every key, those two set to None until read.
@@ -106,57 +163,87 @@ class LazyTruth(dict[str, Any]):
         self._life: Life | None = life
         self._pos = pos
 
+    @property
+    def pending(self) -> bool:
+        return self._life is not None
+
     def _resolve(self) -> None:
         if self._life is not None:
             life = self._life()
-            super().__setitem__("rul_events", life - self._pos)
-            super().__setitem__("life_events", life)
+            dict.__setitem__(self, "rul_events", life - self._pos)
+            dict.__setitem__(self, "life_events", life)
             self._life = None  # resolved; the pad may go
 
-    def __getitem__(self, key: str) -> Any:
-        if key in _LAZY_KEYS:
-            self._resolve()
-        return super().__getitem__(key)
-
-    def get(self, key: str, default: Any = None) -> Any:
-        return self[key] if key in self else default  # noqa: SIM401 (self.get is this)
-
-    def __iter__(self) -> Iterator[str]:  # also keeps {**truth} and dict(truth) honest
-        self._resolve()
-        return super().__iter__()
-
-    def items(self) -> ItemsView[str, Any]:  # type: ignore[override]
-        self._resolve()
-        return super().items()
-
-    def values(self) -> ValuesView[Any]:  # type: ignore[override]
-        self._resolve()
-        return super().values()
-
-    def __eq__(self, other: object) -> bool:
-        self._resolve()
-        if isinstance(other, LazyTruth):
-            other._resolve()
-        return super().__eq__(other)
-
-    __hash__ = None
-
-    def __repr__(self) -> str:
-        self._resolve()
-        return super().__repr__()
+    def known(self) -> dict[str, Any]:
+        """Every key but the two pending ones (all of them once read), nothing read."""
+        if self._life is None:
+            return self._known()
+        return {k: v for k, v in self._known().items() if k not in _LAZY_KEYS}
 
     def copy(self) -> dict[str, Any]:
         """A shallow copy, pending while this one is (sharing ``life``)."""
         if self._life is None:
-            return dict(super().items())
-        return LazyTruth(dict(super().items()), self._life, self._pos)
+            return self._known()
+        return LazyTruth(self._known(), self._life, self._pos)
 
     def __deepcopy__(self, memo: dict[int, Any]) -> dict[str, Any]:
-        values = {k: copy.deepcopy(v, memo) for k, v in super().items()}
+        values = {k: copy.deepcopy(v, memo) for k, v in self._known().items()}
         return values if self._life is None else LazyTruth(values, self._life, self._pos)
 
     def __reduce__(self) -> tuple[Any, ...]:
         """Pickled pending (``life`` pickled, not called); as a plain dict once read."""
         if self._life is None:
-            return (dict, (dict(super().items()),))
-        return (LazyTruth, (dict(super().items()), self._life, self._pos))
+            return (dict, (self._known(),))
+        return (LazyTruth, (self._known(), self._life, self._pos))
+
+
+class StackedTruth(_PendingDict):
+    """``infos["truth"]`` of a Gymnasium vector env of BrakeWear-v0: Gymnasium's layout
+    (each key an array over the sub-envs, with its ``_key`` mask), ``rul_events`` and
+    ``life_events`` (and masks) filled in from the sub-envs' :class:`LazyTruth` when first
+    read. Gymnasium's own stacking iterates each sub-env's truth, which would read it.
+
+    Args:
+        num_envs: Sub-environments.
+        values: The keys stacked so far.
+    """
+
+    def __init__(self, num_envs: int, values: dict[str, Any] | None = None) -> None:
+        super().__init__(values or {})
+        self._n = num_envs
+        self._pending: dict[int, LazyTruth] = {}
+
+    @property
+    def pending(self) -> bool:
+        return bool(self._pending)
+
+    def add(self, env_num: int, truth: LazyTruth) -> None:
+        """Sub-env ``env_num``'s truth, its pending keys stacked when read."""
+        self._pending[env_num] = truth
+
+    def _resolve(self) -> None:
+        if not self._pending:
+            return
+        pending, self._pending = self._pending, {}
+        for key in _LAZY_KEYS:
+            values = self._known().get(key, np.zeros(self._n, dtype=np.int64))
+            mask = self._known().get(f"_{key}", np.zeros(self._n, dtype=bool))
+            for i, truth in pending.items():
+                values[i], mask[i] = truth[key], True
+            dict.__setitem__(self, key, values)
+            dict.__setitem__(self, f"_{key}", mask)
+
+    def __deepcopy__(self, memo: dict[int, Any]) -> StackedTruth:
+        new = StackedTruth(self._n, copy.deepcopy(self._known(), memo))
+        new._pending = {i: copy.deepcopy(t, memo) for i, t in self._pending.items()}
+        return new
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        """Pickled pending (each sub-env's ``life`` pickled, not called)."""
+        return (_stacked_truth, (self._n, self._known(), self._pending))
+
+
+def _stacked_truth(n: int, values: dict[str, Any], pending: dict[int, LazyTruth]) -> StackedTruth:
+    new = StackedTruth(n, values)
+    new._pending = pending
+    return new

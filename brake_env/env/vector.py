@@ -20,6 +20,7 @@ from numpy.typing import NDArray
 
 from brake_env.env.brake_wear import REPLACE, BrakeWearEnv, default_atlas, observation_space
 from brake_env.env.config import EnvConfig
+from brake_env.env.lazy_truth import LazyTruth, StackedTruth
 from brake_env.env.pads import PadService
 from brake_env.model.atlas import Atlas
 
@@ -114,6 +115,20 @@ class BrakeWearVectorEnv(VectorEnv[NDArray[np.float32], NDArray[np.int64], NDArr
             infos = self._add_info(infos, info, i)
         self._autoreset = truncs.copy()
         return self._observations(), rewards, np.zeros(self.num_envs, dtype=bool), truncs, infos
+
+    def _add_info(
+        self, vector_infos: dict[str, Any], env_info: dict[str, Any], env_num: int
+    ) -> dict[str, Any]:
+        """Gymnasium's stacking, except that a pending truth stays pending
+        (:class:`~brake_env.env.lazy_truth.StackedTruth`): stacking iterates it."""
+        truth = env_info.get("truth")
+        if isinstance(truth, LazyTruth) and truth.pending:
+            stacked = vector_infos.get("truth")
+            if not isinstance(stacked, StackedTruth):
+                stacked = vector_infos["truth"] = StackedTruth(self.num_envs, stacked)
+            stacked.add(env_num, truth)
+            env_info = {**env_info, "truth": truth.known()}
+        return super()._add_info(vector_infos, env_info, env_num)
 
     def _observations(self) -> NDArray[np.float32]:
         obs = np.stack([svc.observation() for svc in self._services])

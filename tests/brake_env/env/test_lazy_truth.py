@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from brake_env.env.brake_wear import BrakeWearEnv
-from brake_env.env.lazy_truth import LazyTruth, PendingRULEvents
+from brake_env.env.lazy_truth import LazyTruth, PendingRULEvents, StackedTruth
 from brake_env.env.pad_life import PadLife
 from brake_env.env.pads import RetiredPad
 from brake_env.prognostics.protocol import EventBatch
@@ -142,3 +142,26 @@ def test_sb3_dummy_vec_env_never_simulates(monkeypatch) -> None:
         infos = [vec.step(np.array([a]))[3][0] for a in _actions(40)]
     assert isinstance(infos[-1]["truth"], LazyTruth)
     assert infos[-1]["truth"]["rul_events"] > 0  # read now
+
+
+def test_gymnasium_vector_env_stacks_the_truth_without_reading_it(atlas, monkeypatch) -> None:
+    import gymnasium as gym
+
+    n = 2
+    actions = (np.random.default_rng(5).random((16, n)) < 0.4).astype(np.int64)
+    native = gym.make_vec("BrakeWear-v0", num_envs=n, atlas=atlas, **FAST)
+    sync = gym.make_vec("BrakeWear-v0", num_envs=n, vectorization_mode="sync", atlas=atlas, **FAST)
+    native.reset(seed=6)
+    sync.reset(seed=6)
+    with monkeypatch.context() as m:
+        _never_simulate(m)
+        kept = [native.step(a)[4] for a in actions]
+        copies = copy.deepcopy(kept), pickle.loads(pickle.dumps(kept))
+    assert isinstance(kept[-1]["truth"], StackedTruth) and kept[-1]["truth"].pending
+    for a, *infos in zip(actions, kept, *copies, strict=True):
+        expected = sync.step(a)[4]["truth"]  # Gymnasium's own stacking, read at once
+        for info in infos:
+            truth = info["truth"]
+            assert set(truth) == set(expected)
+            for key, value in expected.items():
+                np.testing.assert_array_equal(truth[key], value)
