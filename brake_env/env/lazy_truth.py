@@ -174,6 +174,9 @@ class LazyTruth(_PendingDict):
             dict.__setitem__(self, "life_events", life)
             self._life = None  # resolved; the pad may go
 
+    def __contains__(self, key: object) -> bool:
+        return dict.__contains__(self, key)  # its keys are all there, pending or not
+
     def known(self) -> dict[str, Any]:
         """Every key but the two pending ones (all of them once read), nothing read."""
         if self._life is None:
@@ -211,15 +214,19 @@ class StackedTruth(_PendingDict):
     def __init__(self, num_envs: int, values: dict[str, Any] | None = None) -> None:
         super().__init__(values or {})
         self._n = num_envs
-        self._pending: dict[int, LazyTruth] = {}
+        self._pending: dict[int, dict[str, Any]] = {}
 
     @property
     def pending(self) -> bool:
         return bool(self._pending)
 
-    def add(self, env_num: int, truth: LazyTruth) -> None:
-        """Sub-env ``env_num``'s truth, its pending keys stacked when read."""
+    def add(self, env_num: int, truth: dict[str, Any]) -> dict[str, Any]:
+        """Sub-env ``env_num``'s truth, its ``rul_events`` and ``life_events`` stacked when
+        read. Returns its other keys, for Gymnasium's stacking."""
         self._pending[env_num] = truth
+        if isinstance(truth, LazyTruth):
+            return {k: v for k, v in truth.known().items() if k not in _LAZY_KEYS}
+        return {k: v for k, v in truth.items() if k not in _LAZY_KEYS}
 
     def _resolve(self) -> None:
         if not self._pending:
@@ -243,7 +250,9 @@ class StackedTruth(_PendingDict):
         return (_stacked_truth, (self._n, self._known(), self._pending))
 
 
-def _stacked_truth(n: int, values: dict[str, Any], pending: dict[int, LazyTruth]) -> StackedTruth:
+def _stacked_truth(
+    n: int, values: dict[str, Any], pending: dict[int, dict[str, Any]]
+) -> StackedTruth:
     new = StackedTruth(n, values)
     new._pending = pending
     return new

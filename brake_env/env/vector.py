@@ -121,13 +121,11 @@ class BrakeWearVectorEnv(VectorEnv[NDArray[np.float32], NDArray[np.int64], NDArr
     ) -> dict[str, Any]:
         """Gymnasium's stacking, except that a pending truth stays pending
         (:class:`~brake_env.env.lazy_truth.StackedTruth`): stacking iterates it."""
-        truth = env_info.get("truth")
-        if isinstance(truth, LazyTruth) and truth.pending:
-            stacked = vector_infos.get("truth")
+        truth, stacked = env_info.get("truth"), vector_infos.get("truth")
+        if isinstance(stacked, StackedTruth) or (isinstance(truth, LazyTruth) and truth.pending):
             if not isinstance(stacked, StackedTruth):
                 stacked = vector_infos["truth"] = StackedTruth(self.num_envs, stacked)
-            stacked.add(env_num, truth)
-            env_info = {**env_info, "truth": truth.known()}
+            env_info = {**env_info, "truth": stacked.add(env_num, env_info["truth"])}
         return super()._add_info(vector_infos, env_info, env_num)
 
     def _observations(self) -> NDArray[np.float32]:

@@ -165,3 +165,26 @@ def test_gymnasium_vector_env_stacks_the_truth_without_reading_it(atlas, monkeyp
             assert set(truth) == set(expected)
             for key, value in expected.items():
                 np.testing.assert_array_equal(truth[key], value)
+
+
+def test_vector_truth_of_known_and_pending_pads_together(atlas) -> None:
+    """Reading a step's truth simulates its pads: the next steps mix sub-envs whose truth
+    is known (plain dicts) with sub-envs that replaced their pad (pending)."""
+    import gymnasium as gym
+
+    n = 3
+    actions = (np.random.default_rng(8).random((12, n)) < 0.3).astype(np.int64)
+    native = gym.make_vec("BrakeWear-v0", num_envs=n, atlas=atlas, **FAST)
+    sync = gym.make_vec("BrakeWear-v0", num_envs=n, vectorization_mode="sync", atlas=atlas, **FAST)
+    native.reset(seed=9)
+    sync.reset(seed=9)
+    kinds = set()
+    for t, a in enumerate(actions):
+        truth, expected = native.step(a)[4]["truth"], sync.step(a)[4]["truth"]
+        if isinstance(truth, StackedTruth):
+            kinds.add(tuple(isinstance(p, LazyTruth) for p in truth._pending.values()))
+        if t % 3 == 0 or t == len(actions) - 1:
+            assert set(truth) == set(expected)
+            for key, value in expected.items():
+                np.testing.assert_array_equal(truth[key], value)
+    assert any(any(k) and not all(k) for k in kinds)  # a mixed step happened
