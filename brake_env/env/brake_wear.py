@@ -142,7 +142,7 @@ class BrakeWearEnv(gym.Env[NDArray[np.float32], np.int64]):
     RUL, life and regime of the installed pad; for analysis only, never for a policy).
     With ``truth`` (the default) the RULs and lives are simulated when first read (about one
     pad life, ~50 ms at the default K, per pad read); copying or pickling an info, as SB3's
-    and Gymnasium's vector envs do every step, reads nothing (:mod:`.lazy_truth`).
+    and Gymnasium's vector envs do every step, reads nothing (:mod:`brake_env.env.lazy_truth`).
 
     ## Arguments
 
