@@ -141,7 +141,7 @@ class BrakeWearEnv(gym.Env[NDArray[np.float32], np.int64]):
     left, 0 for a failure; its ``life`` and its ``regime``) and ``truth`` (true volume, K,
     RUL, life and regime of the installed pad; for analysis only, never for a policy).
     With ``truth`` (the default) the RULs and lives are simulated when first read (about one
-    pad life, ~50 ms at the default K, per pad read); copying or pickling an info, as SB3's
+    pad life, ~0.1 s at the default K, per pad read); copying or pickling an info, as SB3's
     and Gymnasium's vector envs do every step, reads nothing (:mod:`brake_env.env.lazy_truth`).
 
     ## Arguments

@@ -122,7 +122,7 @@ class EnvConfig:
             serving, the rest only counted; :mod:`brake_env.env.lazy_truth`: a policy that
             never reads it never pays for it, and copying or pickling an info, as SB3's
             vector envs do every step, does not read it; a read costs about one pad life
-            simulated, ~50 ms at the default K, once per pad; Gymnasium's passive env
+            simulated, ~0.1 s at the default K, once per pad; Gymnasium's passive env
             checker reads the first two steps' infos whole), so ``info["truth"]["rul_events"]`` and
             ``["life_events"]``, the events' ``rul_events`` column (the oracle reads it)
             and each :class:`~brake_env.env.pads.RetiredPad`'s ``life_left`` and ``life``
