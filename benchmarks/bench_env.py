@@ -14,12 +14,22 @@ Prints, next to the bare simulator's events/s measured in the same process:
   - keep only, truth=True, events/s / the simulator's [no lower than before pads were
     streamed: 0.61x, this script on commit 1de0289 without its truth=False rows].
 - steps/s at interval 1, bare and with the oracle RUL wrapper [>= 20,000 steps/s bare].
+- what an RL client sees, at the default keyword arguments (truth=True) and random actions
+  (replace with probability 0.5): ``gym.make("BrakeWear-v0")`` steps/s, SB3's
+  ``make_vec_env("BrakeWear-v0", n_envs=1)`` steps/s (its ``DummyVecEnv`` deep-copies every
+  step's infos, and its Monitor and rgb_array render mode come along) and their ratio
+  [>= 0.5x; 31 steps/s, 0.02x, while copying an info simulated its lazy truth], and SB3 PPO
+  training steps/s on ``make_vec_env`` (4,096 steps, ``n_steps=512``, CPU, one torch
+  thread, best of two interleaved rounds), with the default env [>= 500 steps/s; 28
+  before] and with ``truth=False`` (the same, now that copies do not read the truth: what
+  is left is PPO's own forward passes and updates, and the env's steps).
 
 The simulator baseline is measured two ways: one pad per call (one pad's whole life, what
 the env did at each installation before pads were streamed) and eight pads per call (the
 batched use); the ratios are taken against the faster of the two.
 
-Run: ``make bench`` or ``.venv/bin/python benchmarks/bench_env.py [--json out.json]``.
+Run: ``make bench`` or ``.venv/bin/python benchmarks/bench_env.py [--json out.json]``
+(``--rl-only``: only the RL-client figures).
 """
 
 from __future__ import annotations
@@ -33,7 +43,7 @@ import gymnasium as gym
 import numpy as np
 
 import brake_env  # noqa: F401  (registers BrakeWear-v0)
-from brake_env.env.shared import default_atlas
+from brake_env.env.atlases import default_atlas
 from brake_env.env.wrappers import RULObservation
 from brake_env.model.simulator import simulate_runs
 from brake_env.output import table, write_json
@@ -79,6 +89,84 @@ def env_job(
     return run
 
 
+def client_jobs(steps: int = 2000) -> dict[str, Callable[[], tuple[int, int]]]:
+    """The raw env and SB3's ``make_vec_env`` of it, at the default keyword arguments, each
+    stepped ``steps`` times with the same random actions (replace with probability 0.5),
+    reset when truncated: (steps, events)."""
+    from stable_baselines3.common.env_util import make_vec_env
+
+    actions = (np.random.default_rng(1).random(steps) < 0.5).astype(np.int64)
+    env = gym.make("BrakeWear-v0")
+    vec = make_vec_env("BrakeWear-v0", n_envs=1, seed=0)
+
+    def raw() -> tuple[int, int]:
+        _, info = env.reset(seed=0)
+        events = len(info["events"])
+        for a in actions.tolist():
+            _, _, terminated, truncated, info = env.step(a)
+            events += len(info["events"])
+            if terminated or truncated:
+                env.reset()
+        return steps, events
+
+    def vectorised() -> tuple[int, int]:
+        vec.seed(0)
+        vec.reset()
+        events = 0
+        for a in actions:
+            _, _, _, infos = vec.step(a[None])
+            events += len(infos[0]["events"])
+        return steps, events
+
+    return {"client_raw": raw, "client_make_vec_env": vectorised}
+
+
+def ppo_rate(total: int = 4096, **env_kwargs) -> float:
+    """SB3 PPO training steps/s on ``make_vec_env("BrakeWear-v0", n_envs=1)``: ``total``
+    steps, ``n_steps=512``, CPU, one torch thread; CPU time of the ``learn`` call."""
+    import torch
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.env_util import make_vec_env
+
+    torch.set_num_threads(1)
+    vec = make_vec_env("BrakeWear-v0", n_envs=1, seed=0, env_kwargs=env_kwargs)
+    model = PPO("MlpPolicy", vec, n_steps=512, batch_size=64, device="cpu", seed=0)
+    t0 = time.process_time()
+    model.learn(total_timesteps=total)
+    return total / (time.process_time() - t0)
+
+
+def client_figures(repeats: int) -> tuple[dict[str, float], list[list[str]]]:
+    """The RL-client figures and their table rows."""
+    r = rates(client_jobs(), repeats)
+    raw, vec = r["client_raw"][0], r["client_make_vec_env"][0]
+    # Best of two rounds, interleaved: the first learn() also pays torch's warm-up.
+    ppo, ppo_no_truth = 0.0, 0.0
+    for _ in range(2):
+        ppo, ppo_no_truth = max(ppo, ppo_rate()), max(ppo_no_truth, ppo_rate(truth=False))
+    fig = {
+        "client_raw_env_steps_per_s": raw,
+        "client_make_vec_env_steps_per_s": vec,
+        "client_make_vec_env_ratio_to_raw": vec / raw,
+        "client_ppo_train_steps_per_s": ppo,
+        "client_ppo_train_steps_per_s_truth_false": ppo_no_truth,
+    }
+    rows = [
+        ["RL client: gym.make, replace p=0.5", f"{raw:,.0f} steps/s", "", "", "", "baseline"],
+        [
+            "RL client: make_vec_env(n_envs=1), p=0.5",
+            f"{vec:,.0f} steps/s",
+            "",
+            "",
+            f"{vec / raw:.2f}x raw",
+            ">= 0.5x raw",
+        ],
+        ["RL client: SB3 PPO learn (defaults)", f"{ppo:,.0f} steps/s", "", "", "", ">= 500"],
+        ["RL client: SB3 PPO learn, truth=False", f"{ppo_no_truth:,.0f} steps/s", "", "", "", ""],
+    ]
+    return fig, rows
+
+
 def rates(
     jobs: dict[str, Callable[[], tuple[int, int]]], repeats: int
 ) -> dict[str, tuple[float, float]]:
@@ -118,7 +206,15 @@ def main() -> dict[str, float]:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--json", default=None, help="also write the figures to this JSON file")
+    ap.add_argument("--rl-only", action="store_true", help="only the RL-client figures")
     args = ap.parse_args()
+    header = ["figure", "steps/s", "events/s", "x simulator", "x keep-only", "target"]
+    if args.rl_only:
+        fig, rows = client_figures(args.repeats)
+        print(table([header, *rows]))
+        if args.json:
+            write_json(fig, Path(args.json))
+        return fig
     atlas = default_atlas()
     jobs = {"sim_one": simulator_job(atlas, 1), "sim_batch": simulator_job(atlas, 8)}
     for truth, scenarios in SCENARIOS.items():
@@ -170,7 +266,9 @@ def main() -> dict[str, float]:
                 "" if oracle else ">= 20,000 steps/s",
             ]
         )
-    header = ["figure", "steps/s", "events/s", "x simulator", "x keep-only", "target"]
+    client_fig, client_rows = client_figures(args.repeats)
+    fig.update(client_fig)
+    rows.extend(client_rows)
     print(table([header, *rows]))
     if args.json:
         write_json(fig, Path(args.json))

@@ -29,11 +29,11 @@ from pathlib import Path
 import numpy as np
 
 from brake_env.data.datasets import DatasetSpec, make_dataset
+from brake_env.env.atlases import default_atlas
 from brake_env.env.fleet.env import BrakeWearFleetEnv
 from brake_env.env.fleet.routes import HOT, MILD, route_mean
 from brake_env.env.fleet.shop import SERVICE
 from brake_env.env.fleet.wrappers import FleetRULObservation
-from brake_env.env.shared import default_atlas
 from brake_env.model.simulator import simulate_runs
 from brake_env.output import table, write_json
 from brake_env.prognostics.registry import make_predictor

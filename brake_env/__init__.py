@@ -3,12 +3,15 @@ the wear clock, the K distribution, the coupled run-to-failure simulator), ``dat
 logs and datasets), ``prognostics`` (predictor protocol and registry, metrics, evaluation),
 ``env`` (BrakeWear-v0, its vector env and the RUL observation wrapper) and ``cli``.
 
-Importing the package registers ``BrakeWear-v0`` and ``BrakeWearFleet-v0``. No torch or
+Importing the package registers ``BrakeWear-v0``, ``BrakeWearFleet-v0`` and
+``BrakeWearFleetSmall-v0`` (the 2-vehicle fleet, ``SMALL_FLEET``). No torch or
 Stable-Baselines3 here, and no import of the downstream packages (twin, baselines, agents,
 sim2real): they plug in through entry points.
 """
 
 from gymnasium.envs.registration import register, registry
+
+from brake_env.env.fleet.config import SMALL_FLEET, FleetConfig
 
 __version__ = "0.1.0"
 
@@ -20,9 +23,26 @@ if "BrakeWear-v0" not in registry:
         disable_env_checker=False,
     )
 
+# The fleet envs truncate themselves after ``episode_shifts``; ``max_episode_steps`` (the
+# default config's episode_shifts) only tells Gymnasium, SB3 and RLlib the episode length,
+# through the TimeLimit wrapper ``gym.make`` adds. A run with more shifts than that passes
+# ``max_episode_steps`` too (or -1), else TimeLimit cuts it short: see the fleet env's
+# "Episode End". Fewer shifts need nothing (the env truncates first).
+FLEET_SHIFTS = FleetConfig.episode_shifts
+
 if "BrakeWearFleet-v0" not in registry:
     register(
         id="BrakeWearFleet-v0",
         entry_point="brake_env.env.fleet.env:BrakeWearFleetEnv",
+        max_episode_steps=FLEET_SHIFTS,
+        disable_env_checker=False,
+    )
+
+if "BrakeWearFleetSmall-v0" not in registry:
+    register(
+        id="BrakeWearFleetSmall-v0",
+        entry_point="brake_env.env.fleet.env:BrakeWearFleetEnv",
+        kwargs=dict(SMALL_FLEET),
+        max_episode_steps=FLEET_SHIFTS,
         disable_env_checker=False,
     )

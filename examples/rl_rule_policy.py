@@ -19,7 +19,7 @@ import gymnasium as gym
 import brake_env  # noqa: F401  (registers BrakeWear-v0)
 from agents.policies.rules import RULThreshold
 from brake_env.data.datasets import DatasetSpec, make_dataset
-from brake_env.env.shared import default_atlas
+from brake_env.env.atlases import default_atlas
 from brake_env.env.wrappers import RULObservation
 from brake_env.model.regime import WearRegime
 from brake_env.prognostics.protocol import Oracle

@@ -23,7 +23,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from brake_env.data.datasets import DatasetSpec, make_dataset
-from brake_env.env.shared import default_atlas
+from brake_env.env.atlases import default_atlas
 from brake_env.output import table
 from brake_env.prognostics.fleet import predict_runs, take_events
 from brake_env.prognostics.metrics import rmse

@@ -38,7 +38,7 @@ def check_action(action: Any) -> int:
     if isinstance(action, np.ndarray | np.generic) and action.shape != ():
         raise ValueError(
             "BrakeWear-v0: step() takes one action, 0 (keep) or 1 (replace), not an array of"
-            f" shape {action.shape} (a vector env takes one per sub-environment)"
+            f" shape {action.shape}: got {action!r} (a vector env takes one per sub-environment)"
         )
     if not isinstance(action, int | np.integer | np.ndarray) or (
         isinstance(action, np.ndarray) and action.dtype.kind not in "iu"
@@ -140,6 +140,9 @@ class BrakeWearEnv(gym.Env[NDArray[np.float32], np.int64]):
     for each pad taken off in the step, in order: ``life_left``, the events of life it had
     left, 0 for a failure; its ``life`` and its ``regime``) and ``truth`` (true volume, K,
     RUL, life and regime of the installed pad; for analysis only, never for a policy).
+    With ``truth`` (the default) the RULs and lives are simulated when first read (about one
+    pad life, ~0.1 s at the default K, per pad read); copying or pickling an info, as SB3's
+    and Gymnasium's vector envs do every step, reads nothing (:mod:`brake_env.env.lazy_truth`).
 
     ## Arguments
 

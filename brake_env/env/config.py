@@ -138,7 +138,10 @@ class EnvConfig(RegimeFields):
         truth: Give the true RUL: a pad is simulated ahead to failure when its truth is
             first read (on a copy of its random stream; events up to ~5e5 are kept for
             serving, the rest only counted; :mod:`brake_env.env.lazy_truth`: a policy that
-            never reads it never pays for it), so ``info["truth"]["rul_events"]`` and
+            never reads it never pays for it, and copying or pickling an info, as SB3's
+            vector envs do every step, does not read it; a read costs about one pad life
+            simulated, ~0.1 s at the default K, once per pad; Gymnasium's passive env
+            checker reads the first two steps' infos whole), so ``info["truth"]["rul_events"]`` and
             ``["life_events"]``, the events' ``rul_events`` column (the oracle reads it)
             and each :class:`~brake_env.env.pads.RetiredPad`'s ``life_left`` and ``life``
             are exact. With False the env simulates only the events it serves, so a

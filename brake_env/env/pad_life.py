@@ -23,6 +23,7 @@ from typing import Any
 
 import numpy as np
 
+from brake_env.env.atlases import default_atlas, shared_atlas_key
 from brake_env.env.config import EnvConfig
 from brake_env.env.lazy_truth import PendingRULEvents
 from brake_env.model.atlas import Atlas
@@ -113,6 +114,14 @@ class PadLife:
             self._life = int(runs.pos[0])
         return self._life
 
+    @property
+    def life_of(self) -> LifeOf:
+        """:attr:`n_events` as a callable that copies and pickles without simulating: what
+        the lazy truth (:mod:`brake_env.env.lazy_truth`) holds. A new one each time: kept
+        on the pad, it would make a reference cycle that keeps a retired pad's buffers
+        alive until the garbage collector runs."""
+        return LifeOf(self)
+
     def available(self, start: int, n: int) -> int:
         """How many of events ``start`` to ``start + n - 1`` the pad completes (simulating
         them): n, or fewer if it reaches the end of its life first."""
@@ -134,7 +143,7 @@ class PadLife:
         cols["volume_frac"] = self._volume[i:j]
         cols["wear_coeff"] = np.full(b - start, self.wear_coeff)
         if self.truth and self._life is None:  # simulated ahead when first read
-            return PendingRULEvents.of(cols, lambda: self.n_events, start)
+            return PendingRULEvents.of(cols, self.life_of, start)
         if self.truth:
             life = self.n_events
             cols["rul_events"] = np.arange(life - 1 - start, life - 1 - b, -1)
@@ -215,3 +224,68 @@ class PadLife:
         self._n += c
         self._hi += c
         self._vol_end = float(self._runs.vol[0])
+
+
+class LifeOf:
+    """A pad's :attr:`PadLife.n_events`, simulated when called, never when copied.
+
+    A deep copy is this object itself: the copy's truth, when read, reads the same pad
+    (which is then simulated once for both). A pickle holds what the life is a function of
+    (the pad's K, config and seeds, and the atlas, by its key if it is a shared one:
+    :mod:`brake_env.env.atlases`), or the life itself once known; unpickled, it simulates
+    a new pad of those seeds when called, which gives the same life (the same code on the
+    same streams).
+    """
+
+    __slots__ = ("_pad",)
+
+    def __init__(self, pad: PadLife) -> None:
+        self._pad = pad
+
+    def __call__(self) -> int:
+        return self._pad.n_events
+
+    def __deepcopy__(self, memo: dict[int, Any]) -> LifeOf:
+        return self
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        pad = self._pad
+        if pad.life is not None:
+            return (_known_life, (pad.life,))
+        atlas, config, cond_seed, noise_seeds = pad._origin
+        key = shared_atlas_key(atlas)
+        seeds = (cond_seed, noise_seeds)
+        return (_life_of_seeds, (key, None if key else atlas, config, pad.wear_coeff, seeds))
+
+
+class _KnownLife:
+    __slots__ = ("life",)
+
+    def __init__(self, life: int) -> None:
+        self.life = life
+
+    def __call__(self) -> int:
+        return self.life
+
+
+def _known_life(life: int) -> _KnownLife:
+    return _KnownLife(life)
+
+
+def _life_of_seeds(
+    key: tuple[str, str | None] | None,
+    atlas: Atlas | None,
+    config: EnvConfig,
+    wear_coeff: float,
+    seeds: tuple[np.random.SeedSequence, list[np.random.SeedSequence]],
+) -> LifeOf:
+    """An unpickled :class:`LifeOf`: a new pad on the same streams, not simulated yet."""
+    if atlas is None:
+        assert key is not None
+        atlas = default_atlas(*key)
+    pad = PadLife.__new__(PadLife)
+    pad.wear_coeff, pad.label, pad.truth = wear_coeff, "", config.truth
+    pad._origin = (atlas, config, *seeds)
+    pad._life = None
+    pad._start_over()
+    return pad.life_of

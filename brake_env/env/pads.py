@@ -19,7 +19,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from brake_env.env.config import EnvConfig
-from brake_env.env.lazy_truth import LazyTruth
+from brake_env.env.lazy_truth import LazyTruth, Life
 from brake_env.env.pad_life import PadLife
 from brake_env.model.atlas import Atlas
 from brake_env.model.simulator import simulate_runs
@@ -55,21 +55,22 @@ class RetiredPad:
 class _PendingRetiredPad(RetiredPad):
     """A pad taken off by a planned replacement in an env with ``truth`` whose end of life
     is not simulated yet: ``life_left`` and ``life`` are simulated when first read
-    (:mod:`brake_env.env.lazy_truth`), and the pad is let go then."""
+    (:mod:`brake_env.env.lazy_truth`), not when copied or pickled."""
 
     @classmethod
-    def of(cls, pad: PadLife, pos: int) -> _PendingRetiredPad:
+    def of(cls, life: Life, pos: int, regime: str) -> _PendingRetiredPad:
+        """The pad whose events to failure ``life`` gives, taken off after ``pos`` events."""
         obj = object.__new__(cls)
-        object.__setattr__(obj, "regime", pad.label)
-        object.__setattr__(obj, "_pad", pad)
+        object.__setattr__(obj, "regime", regime)
+        object.__setattr__(obj, "_life_of", life)
         object.__setattr__(obj, "_pos", pos)
         object.__setattr__(obj, "_life", None)
         return obj
 
     def _resolve(self) -> int:
         if self.__dict__["_life"] is None:
-            object.__setattr__(self, "_life", self.__dict__["_pad"].n_events)
-            object.__setattr__(self, "_pad", None)
+            object.__setattr__(self, "_life", self.__dict__["_life_of"]())
+            object.__setattr__(self, "_life_of", None)  # the pad may go
         life: int = self.__dict__["_life"]
         return life
 
@@ -93,9 +94,21 @@ class _PendingRetiredPad(RetiredPad):
 
     __hash__ = RetiredPad.__hash__
 
+    def __deepcopy__(self, memo: dict[int, Any]) -> RetiredPad:
+        return self.__copy__()
+
+    def __copy__(self) -> RetiredPad:
+        """Still pending (sharing ``life``) if this one is; immutable values otherwise."""
+        if self.__dict__["_life"] is not None:
+            return RetiredPad(self.life_left, self.life, self.regime)
+        return _PendingRetiredPad.of(self.__dict__["_life_of"], self.__dict__["_pos"], self.regime)
+
     def __reduce__(self) -> tuple[Any, ...]:
-        """Pickled as a plain RetiredPad, the truth computed."""
-        return (RetiredPad, (self.life_left, self.life, self.regime))
+        """Pickled pending (``life`` pickled, not called); as a plain RetiredPad once read."""
+        if self.__dict__["_life"] is not None:
+            return (RetiredPad, (self.life_left, self.life, self.regime))
+        d = self.__dict__
+        return (_PendingRetiredPad.of, (d["_life_of"], d["_pos"], self.regime))
 
 
 def simulate_pad(
@@ -179,7 +192,7 @@ class PadService:
         """Replace the pad first if asked, then serve the step's events. Returns the info."""
         n = min(self.config.decision_interval, self.config.episode_events - self.events_done)
         if n <= 0:
-            raise RuntimeError("the episode is over; call reset()")
+            raise RuntimeError("BrakeWear-v0: the episode is over; call reset()")
         return self._serve(n, replaced=replace)
 
     @property
@@ -225,7 +238,7 @@ class PadService:
         if not self.config.truth:
             return RetiredPad(None, None, pad.label)
         if pad.life is None:
-            return _PendingRetiredPad.of(pad, self.pos)
+            return _PendingRetiredPad.of(pad.life_of, self.pos, pad.label)
         return RetiredPad(pad.n_events - self.pos, pad.n_events, pad.label)
 
     def _serve(self, n: int, replaced: bool) -> dict[str, Any]:
@@ -279,7 +292,7 @@ class PadService:
             "failures": failures,
             "pads_retired": len(retired),
             "retired": retired,
-            "truth": LazyTruth(truth, lambda: pad.n_events, self.pos)
+            "truth": LazyTruth(truth, pad.life_of, self.pos)
             if self.config.truth and life is None
             else truth,
         }

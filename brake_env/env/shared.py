@@ -12,8 +12,8 @@ from typing import Any, TypeVar
 import numpy as np
 
 from brake_env._validate import check_keywords, from_dict
-from brake_env.model.atlas import Atlas, AtlasSpec, cached_atlas
-from brake_env.model.params import BrakeModel
+from brake_env.env.atlases import default_atlas
+from brake_env.model.atlas import Atlas
 
 C = TypeVar("C")
 
@@ -59,17 +59,6 @@ def check_render_mode(env_id: str, render_mode: str | None, modes: list[str]) ->
     if render_mode not in (None, *modes):
         shown = ", ".join(repr(m) for m in modes)
         raise ValueError(f"{env_id}: render_mode must be None, {shown}, got {render_mode!r}")
-
-
-_ATLASES: dict[tuple[str, str | None], Atlas] = {}
-
-
-def default_atlas(preset: str = "hot-duty", cache_dir: str | None = None) -> Atlas:
-    """The preset's atlas from the on-disk cache (built once, ~1 s), shared in the process."""
-    key = (preset, cache_dir or os.environ.get("BRAKEWEAR_CACHE_DIR"))
-    if key not in _ATLASES:
-        _ATLASES[key] = cached_atlas(AtlasSpec(model=BrakeModel.preset(preset)), cache_dir)
-    return _ATLASES[key]
 
 
 def env_atlas(atlas: Atlas | str | os.PathLike[str] | None, preset: str) -> Atlas:

@@ -18,10 +18,11 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 from numpy.typing import NDArray
 
+from brake_env.env.atlases import default_atlas
 from brake_env.env.brake_wear import REPLACE, BrakeWearEnv, observation_space
 from brake_env.env.config import EnvConfig
+from brake_env.env.lazy_truth import LazyTruth, StackedTruth
 from brake_env.env.pads import PadService
-from brake_env.env.shared import default_atlas
 from brake_env.model.atlas import Atlas
 
 
@@ -62,6 +63,7 @@ class BrakeWearVectorEnv(VectorEnv[NDArray[np.float32], NDArray[np.int64], NDArr
         self._services = [PadService(atlas, self.config) for _ in range(num_envs)]
         self._rngs = [seeding.np_random()[0] for _ in range(num_envs)]
         self._autoreset = np.zeros(num_envs, dtype=bool)
+        self._started = False
         self.spec = None
 
     def reset(
@@ -81,16 +83,26 @@ class BrakeWearVectorEnv(VectorEnv[NDArray[np.float32], NDArray[np.int64], NDArr
                 self._rngs[i], _ = seeding.np_random(s)
             infos = self._add_info(infos, self._services[i].start(self._rngs[i]), i)
         self._autoreset[:] = False
+        self._started = True
         return self._observations(), infos
 
     def step(
         self, actions: NDArray[np.int64]
     ) -> tuple[NDArray[np.float32], NDArray[Any], NDArray[Any], NDArray[Any], dict[str, Any]]:
-        actions = np.asarray(actions)
-        if actions.shape != (self.num_envs,) or not np.isin(actions, (0, 1)).all():
+        if not self._started:
+            raise RuntimeError("BrakeWear-v0: call reset() before step()")
+        arr = np.asarray(actions) if isinstance(actions, np.ndarray | list | tuple) else None
+        if (
+            arr is None
+            or arr.shape != (self.num_envs,)
+            or arr.dtype.kind not in "iu"
+            or not np.isin(arr, (0, 1)).all()
+        ):
             raise ValueError(
-                f"BrakeWear-v0: actions must be {self.num_envs} values in {{0, 1}}, got {actions!r}"
+                f"BrakeWear-v0: actions must be {self.num_envs} integers in {{0, 1}} (0 keep, 1"
+                f" replace; an int array of shape ({self.num_envs},)), got {actions!r}"
             )
+        actions = arr
         rewards = np.zeros(self.num_envs)
         truncs = np.zeros(self.num_envs, dtype=bool)
         infos: dict[str, Any] = {}
@@ -104,6 +116,18 @@ class BrakeWearVectorEnv(VectorEnv[NDArray[np.float32], NDArray[np.int64], NDArr
             infos = self._add_info(infos, info, i)
         self._autoreset = truncs.copy()
         return self._observations(), rewards, np.zeros(self.num_envs, dtype=bool), truncs, infos
+
+    def _add_info(
+        self, vector_infos: dict[str, Any], env_info: dict[str, Any], env_num: int
+    ) -> dict[str, Any]:
+        """Gymnasium's stacking, except that a pending truth stays pending
+        (:class:`~brake_env.env.lazy_truth.StackedTruth`): stacking iterates it."""
+        truth, stacked = env_info.get("truth"), vector_infos.get("truth")
+        if isinstance(stacked, StackedTruth) or (isinstance(truth, LazyTruth) and truth.pending):
+            if not isinstance(stacked, StackedTruth):
+                stacked = vector_infos["truth"] = StackedTruth(self.num_envs, stacked)
+            env_info = {**env_info, "truth": stacked.add(env_num, env_info["truth"])}
+        return super()._add_info(vector_infos, env_info, env_num)
 
     def _observations(self) -> NDArray[np.float32]:
         obs = np.stack([svc.observation() for svc in self._services])

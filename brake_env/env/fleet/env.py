@@ -99,7 +99,10 @@ class BrakeWearFleetEnv(gym.Env[NDArray[np.float32], NDArray[np.int64]]):
     ## Episode End
 
     Never terminated (failures are repaired and the mine goes on). Truncated after
-    ``episode_shifts`` shifts.
+    ``episode_shifts`` shifts. ``gym.make`` also adds a TimeLimit of the registered
+    ``max_episode_steps`` (730, the default ``episode_shifts``): with more shifts, pass
+    ``max_episode_steps`` as well (``gym.make(id, episode_shifts=1000,
+    max_episode_steps=1000)``), or the episode is cut at 730; fewer need nothing.
 
     ## Info
 
