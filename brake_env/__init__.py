@@ -33,7 +33,7 @@ FLEET_SHIFTS = FleetConfig.episode_shifts
 if "BrakeWearFleet-v0" not in registry:
     register(
         id="BrakeWearFleet-v0",
-        entry_point="brake_env.env.fleet.env:BrakeWearFleetEnv",
+        entry_point="brake_env.env.fleet.env:make_fleet_env",
         max_episode_steps=FLEET_SHIFTS,
         disable_env_checker=False,
     )
@@ -41,7 +41,7 @@ if "BrakeWearFleet-v0" not in registry:
 if "BrakeWearFleetSmall-v0" not in registry:
     register(
         id="BrakeWearFleetSmall-v0",
-        entry_point="brake_env.env.fleet.env:BrakeWearFleetEnv",
+        entry_point="brake_env.env.fleet.env:make_fleet_env",
         kwargs=dict(SMALL_FLEET),
         max_episode_steps=FLEET_SHIFTS,
         disable_env_checker=False,

@@ -1177,28 +1177,30 @@ def collision_cases(
         lambda r: replace(r, output=(r.output[0] + 1, r.output[1])),
     )
     return [
-        Case("collisions", "predict --out on a fit's model folder", "correct",
-             predict_into(fit_dir), keep),
+        # A command's --out that another command wrote is refused (exit 2, naming the
+        # other command), and a units/ folder the store did not write is left alone.
+        Case("collisions", "predict --out on a fit's model folder", "error",
+             predict_into(fit_dir), names=("holds the output of `brakewear fit`",)),
         Case("collisions", "predict --out on a fleet study's folder (its units/)", "error",
-             predict_into(fs_dir), names=("other settings",)),
+             predict_into(fs_dir), names=("holds the output of `brakewear fleet-study`",)),
         Case("collisions", "predict --out on the dataset folder", "correct",
              predict_into(w.tmp / "data"), keep),
-        Case("collisions", "fit --out on a predict's folder", "correct", fit_into(pred_dir),
+        Case("collisions", "fit --out on a new folder", "correct", fit_into(w.tmp / "col-new"),
              fit_ok),
-        Case("collisions", "fit --out on a fleet study's folder", "correct", fit_into(fs_dir),
-             fit_ok),
-        Case("collisions", "predict: units/ holds notes.txt", "correct",
-             predict_into(w.tmp / "col-u1", {"units/notes.txt": "mine"}), keep),
-        Case("collisions", "predict: units/ holds a foreign JSON", "correct",
-             predict_into(w.tmp / "col-u2", {"units/results.json": '{"a": 1}'}), keep),
+        Case("collisions", "fit --out on a predict's folder", "error", fit_into(pred_dir),
+             names=("holds the output of `brakewear predict`",)),
+        Case("collisions", "fit --out on a fleet study's folder", "error", fit_into(fs_dir),
+             names=("holds the output of `brakewear fleet-study`",)),
+        Case("collisions", "predict: units/ holds notes.txt", "error",
+             predict_into(w.tmp / "col-u1", {"units/notes.txt": "mine"}),
+             names=("notes.txt", "no settings.json")),
+        Case("collisions", "predict: units/ holds a foreign JSON", "error",
+             predict_into(w.tmp / "col-u2", {"units/results.json": '{"a": 1}'}),
+             names=("results.json", "no settings.json")),
         Case("collisions", "predict: units/ holds another run's settings.json", "error",
              predict_into(w.tmp / "col-u3", {"units/settings.json": '{"seed": 7}'})),
-        Case("collisions", "fleet-study: units/ holds a foreign JSON", "correct",
-             _study_foreign(w, atlas), Check(
-                 "costs.json = the library's, the foreign file intact",
-                 lambda r: r.code == 0 and r.output[1]
-                 and same(r.output[0], costs_of(w.tmp / "fleet-lib")),
-                 lambda r: replace(r, output=(r.output[0], False)))),
+        Case("collisions", "fleet-study: units/ holds a foreign JSON", "error",
+             _study_foreign(w, atlas), names=("mine.json", "no settings.json")),
     ]  # fmt: skip
 
 

@@ -13,7 +13,7 @@ from numpy.typing import NDArray
 from brake_env.env.config import EnvConfig
 from brake_env.env.pads import PadLife, PadService
 from brake_env.env.render import Dashboard
-from brake_env.env.shared import check_render_mode, env_atlas
+from brake_env.env.shared import check_render_mode, env_atlas, make_registered
 from brake_env.model.atlas import Atlas
 from brake_env.prognostics.protocol import MEASURED
 
@@ -23,12 +23,6 @@ OBS_NAMES = (*MEASURED, "events_since_install")
 # narrowed where the schema is unbounded); readings are clipped into them.
 _OBS_LOW = np.array([0.0, 0.0, -np.pi / 2, 0.0, -273.15, 0.0, 0.0], dtype=np.float32)
 _OBS_HIGH = np.array([200.0, 1e6, np.pi / 2, 1e9, 3000.0, 1e4, 0.0], dtype=np.float32)
-
-NO_HUMAN_MODE = (
-    "BrakeWear-v0 has no 'human' render mode (its render_modes are 'ansi' and 'rgb_array');"
-    " use render_mode='rgb_array' and show the frames, or wrap that env in"
-    " gymnasium.wrappers.HumanRendering yourself (it needs pygame)"
-)
 
 
 def check_action(action: Any) -> int:
@@ -53,15 +47,8 @@ def check_action(action: Any) -> int:
 
 
 def make_env(**kwargs: Any) -> gym.Env[Any, Any]:
-    """The registered entry point of ``BrakeWear-v0``: :class:`BrakeWearEnv` made from
-    ``gym.make``'s keywords. A function, so ``gym.make`` leaves ``render_mode`` to the env:
-    it would otherwise wrap ``"human"`` in its pygame window instead of saying the env has
-    no such mode. ``"rgb_array_list"`` and ``"ansi_list"`` collect the frames, as
-    ``gym.make`` does for an env class."""
-    mode = kwargs.get("render_mode")
-    if isinstance(mode, str) and mode.endswith("_list") and mode[:-5] in ("ansi", "rgb_array"):
-        return gym.wrappers.RenderCollection(BrakeWearEnv(**{**kwargs, "render_mode": mode[:-5]}))
-    return BrakeWearEnv(**kwargs)
+    """The registered entry point of ``BrakeWear-v0`` (:func:`make_registered`)."""
+    return make_registered(BrakeWearEnv, **kwargs)
 
 
 def observation_space(config: EnvConfig) -> spaces.Box:
@@ -175,8 +162,6 @@ class BrakeWearEnv(gym.Env[NDArray[np.float32], np.int64]):
         **kwargs: Any,
     ) -> None:
         self.config = EnvConfig.from_kwargs(config, **kwargs)
-        if render_mode == "human":
-            raise ValueError(NO_HUMAN_MODE)
         check_render_mode("BrakeWear-v0", render_mode, self.metadata["render_modes"])
         self.render_mode = render_mode
         self.atlas = atlas = env_atlas(atlas, self.config.preset)

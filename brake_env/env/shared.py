@@ -6,9 +6,10 @@ from __future__ import annotations
 
 import dataclasses
 import os
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from typing import Any, TypeVar
 
+import gymnasium as gym
 import numpy as np
 
 from brake_env._validate import check_keywords, from_dict
@@ -56,6 +57,12 @@ def config_from_kwargs(
 
 
 def check_render_mode(env_id: str, render_mode: str | None, modes: list[str]) -> None:
+    if render_mode == "human":
+        raise ValueError(
+            f"{env_id} has no 'human' render mode (its render_modes are {modes}); use"
+            " render_mode='rgb_array' and show the frames, or wrap that env in"
+            " gymnasium.wrappers.HumanRendering yourself (it needs pygame)"
+        )
     if render_mode not in (None, *modes):
         shown = ", ".join(repr(m) for m in modes)
         raise ValueError(f"{env_id}: render_mode must be None, {shown}, got {render_mode!r}")
@@ -75,3 +82,14 @@ def require_env(wrapper: str, env: Any, kind: type, env_id: str) -> None:
         raise TypeError(
             f"{wrapper} wraps {env_id} ({kind.__name__}), got {type(env.unwrapped).__name__}"
         )
+
+
+def make_registered(cls: Callable[..., gym.Env[Any, Any]], **kwargs: Any) -> gym.Env[Any, Any]:
+    """A registered env's entry point: ``cls`` made from ``gym.make``'s keywords. A function,
+    so ``gym.make`` leaves ``render_mode`` to the env: given the class it would wrap
+    ``"human"`` in its pygame window instead of saying the env has no such mode.
+    ``"rgb_array_list"`` and ``"ansi_list"`` collect the frames, as ``gym.make`` does."""
+    mode = kwargs.get("render_mode")
+    if isinstance(mode, str) and mode.endswith("_list") and mode[:-5] in ("ansi", "rgb_array"):
+        return gym.wrappers.RenderCollection(cls(**{**kwargs, "render_mode": mode[:-5]}))
+    return cls(**kwargs)

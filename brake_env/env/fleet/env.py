@@ -16,7 +16,7 @@ from brake_env.env.fleet.pads import FleetPads, ShiftEvents
 from brake_env.env.fleet.render import FleetFrame, ansi
 from brake_env.env.fleet.routes import UNIFORM, route_indices, route_wear_model
 from brake_env.env.fleet.shop import Plan, Workshop
-from brake_env.env.shared import check_render_mode, env_atlas
+from brake_env.env.shared import check_render_mode, env_atlas, make_registered
 from brake_env.model.atlas import Atlas
 
 
@@ -369,3 +369,8 @@ class BrakeWearFleetEnv(gym.Env[NDArray[np.float32], NDArray[np.int64]]):
         return fs.fleet_observation(
             self.config, summary, self.pads.pos, self.shop, self.shift, self._box
         )
+
+
+def make_fleet_env(**kwargs: Any) -> gym.Env[Any, Any]:
+    """The registered entry point of the fleet envs (:func:`make_registered`)."""
+    return make_registered(BrakeWearFleetEnv, **kwargs)

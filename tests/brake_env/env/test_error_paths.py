@@ -24,9 +24,16 @@ def test_human_render_mode_says_there_is_none(atlas):
     for make in (
         lambda: gym.make("BrakeWear-v0", atlas=atlas, render_mode="human"),
         lambda: BrakeWearEnv(atlas=atlas, render_mode="human"),
+        lambda: gym.make("BrakeWearFleet-v0", atlas=atlas, render_mode="human"),
+        lambda: gym.make("BrakeWearFleetSmall-v0", atlas=atlas, render_mode="human"),
     ):
         with pytest.raises(ValueError, match="has no 'human' render mode"):
             make()
+    fleet = gym.make("BrakeWearFleetSmall-v0", atlas=atlas, render_mode="ansi_list")
+    fleet.reset(seed=0)
+    fleet.step(fleet.action_space.sample())
+    frames = fleet.render()  # the reset's frame and the step's
+    assert len(frames) == 2 and all(isinstance(f, str) and f for f in frames)
     env = gym.make("BrakeWear-v0", atlas=atlas, render_mode="rgb_array")
     assert env.metadata["render_modes"] == ["ansi", "rgb_array"]
 
