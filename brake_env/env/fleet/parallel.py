@@ -135,8 +135,10 @@ class BrakeWearFleetParallelEnv(ParallelEnv[str, dict[str, NDArray[Any]], int]):
         n = self._act_spaces[agent].n
         x = as_int(value)
         if x is None:
+            shape = getattr(value, "shape", None)
+            what = f"an array of shape {shape}" if shape else "not an integer"
             raise ValueError(
-                f"{NAME}: {agent}'s action {value!r} is not an integer; it must be an int"
+                f"{NAME}: {agent}'s action {value!r} is {what}; it must be one int"
                 f" in 0-{n - 1} (Discrete({n}))"
             )
         if not 0 <= x < n:

@@ -185,9 +185,9 @@ def test_parallel_step_before_reset_says_call_reset_first(parallel) -> None:
 def test_parallel_refuses_non_integers_naming_agent_and_value(parallel, agent, value) -> None:
     env = parallel()
     env.reset(seed=0)
-    with pytest.raises(
-        ValueError, match=re.escape(f"{agent}'s action {value!r} is not an integer")
-    ):
+    shape = getattr(value, "shape", None)
+    what = f"an array of shape {shape}" if shape else "not an integer"
+    with pytest.raises(ValueError, match=re.escape(f"{agent}'s action {value!r} is {what}")):
         env.step({agent: value})
 
 
