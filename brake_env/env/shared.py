@@ -39,9 +39,11 @@ def check_types(env_id: str, config: object, kinds: Mapping[str, type]) -> None:
     for name, kind in kinds.items():
         v = getattr(config, name)
         if not isinstance(v, kind):
-            extra = "" if kind is bool else " or a dict of its fields"
-            error = ValueError if kind is bool else TypeError
-            raise error(f"{env_id}: {name} must be {kind.__name__}{extra}, got {v!r}")
+            if kind is bool:
+                raise ValueError(f"{env_id}: {name} must be a bool, got {v!r}")
+            raise TypeError(
+                f"{env_id}: {name} must be {kind.__name__} or a dict of its fields, got {v!r}"
+            )
 
 
 def config_from_kwargs(

@@ -46,6 +46,18 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
     f.add_argument("--eval-episodes", type=int_at_least(2), default=40)
     f.add_argument("--n-train-runs", type=int_at_least(1), default=10, help="pads to fit on")
     f.add_argument(
+        "--tail", type=int_at_least(0), default=200,
+        help="shifts past the episode the reference plans for",
+    )  # fmt: skip
+    _add_agent_args(f)
+    add_runner_args(f, workers=2)
+    f.add_argument("--atlas", default=None, help="atlas .npz instead of the cache")
+    f.set_defaults(func="agents.fleet.commands.cli:cmd_fleet_study")
+
+
+def _add_agent_args(f: argparse.ArgumentParser) -> None:
+    """The agents' options (FleetTraining's, where the study sets them)."""
+    f.add_argument(
         "--agents", type=agent_list, default=(), help="predictors given MaskablePPO ('': none)"
     )
     f.add_argument(
@@ -82,10 +94,3 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
     f.add_argument(
         "--curve-episodes", type=int_at_least(1), default=2, help="episodes of each curve point"
     )
-    f.add_argument(
-        "--tail", type=int_at_least(0), default=200,
-        help="shifts past the episode the reference plans for",
-    )  # fmt: skip
-    add_runner_args(f, workers=2)
-    f.add_argument("--atlas", default=None, help="atlas .npz instead of the cache")
-    f.set_defaults(func="agents.fleet.commands.cli:cmd_fleet_study")
