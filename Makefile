@@ -19,10 +19,11 @@ venv: $(STAMP)
 demo: $(STAMP)
 	$(BIN)/brakewear demo --out $(OUT) --seed $(SEED)
 
+# Two pytest workers, one BLAS/torch thread each (more threads than cores slows both).
 test: $(STAMP)
 	$(BIN)/ruff check .
 	$(BIN)/mypy
-	MPLBACKEND=Agg $(BIN)/python -m pytest -q
+	MPLBACKEND=Agg OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 $(BIN)/python -m pytest -q -n 2 --dist loadfile
 
 lint: $(STAMP)
 	$(BIN)/ruff check .
