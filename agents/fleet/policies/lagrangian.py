@@ -17,7 +17,10 @@ pad with more cannot fail within the episode, so the cap is exact.
 - Rounding up and ``r_min`` rounded down: the model's pad never wears faster than the
   expected wear of the real one (relaxation).
 - Wear per shift deterministic at its expectation (law of large numbers): an
-  **approximation**; the benchmark measures the realised life's spread around it.
+  **approximation**; the benchmark measures the realised life's spread around it (a
+  fraction of a shift) and ``slack_shifts`` gives every pad that much more life, which
+  makes the bound hold for every pad whose realised life exceeds its expected one by
+  less.
 - The current pad's K known once fitted: an information relaxation. New pads' ``h`` is
   drawn from the exact distribution of ``ceil(life(K) * units / events_per_shift)`` under
   the config's normal K (no quantile approximation; regime ``id`` only).
@@ -75,6 +78,9 @@ class BoundModel:
         mild_units: Units a mild shift uses (at most its expected wear) [-].
         new_prob: Probability that a new pad's state is ``h``, for h = 0..H [-].
         wear: The hot route's wear clock (RUL from volume and K); None in toy models.
+        slack: Units added to every pad's state (its own and new pads'): a pad that
+            outlives its expected life by up to ``slack`` units (the law of large numbers
+            is not exact) is still within the model's.
     """
 
     config: FleetConfig
@@ -82,10 +88,14 @@ class BoundModel:
     mild_units: int
     new_prob: F64
     wear: WearModel | None = None
+    slack: int = 0
 
     @classmethod
-    def build(cls, config: FleetConfig, atlas: Atlas, units: int = 20) -> BoundModel:
-        """The model of an env's config and atlas (K of the ``id`` regime)."""
+    def build(
+        cls, config: FleetConfig, atlas: Atlas, units: int = 20, slack_shifts: float = 0.0
+    ) -> BoundModel:
+        """The model of an env's config and atlas (K of the ``id`` regime), every pad
+        given ``slack_shifts`` hot shifts more than its expected life."""
         if config.regime != "id":
             raise ValueError(f"BoundModel: regime must be 'id', got {config.regime!r}")
         if units < 1:
@@ -103,7 +113,11 @@ class BoundModel:
         prob[1:] = cdf[:-1] - cdf[1:]
         prob[H] += cdf[H] - norm.cdf(0.0, config.k_mean, config.k_std)  # life >= the cap
         prob /= prob.sum()  # (drops P(K <= 0) ~ 1e-23: no pad has it)
-        return cls(config, units, int(np.floor(units * r_min)), prob, wear)
+        slack = int(np.ceil(slack_shifts * units))
+        if slack > 0:
+            prob = np.concatenate([np.zeros(slack), prob[:-slack]])
+            prob[-1] += 1.0 - prob.sum()
+        return cls(config, units, int(np.floor(units * r_min)), prob, wear, slack)
 
     @property
     def H(self) -> int:
@@ -122,7 +136,7 @@ class BoundModel:
             raise ValueError("BoundModel.state: a toy model has no wear clock")
         v = np.clip(volume_frac, self.wear.lower_edges[-1], 1.0)
         x = self.wear.rul(v, k) * self.units / self.config.events_per_shift
-        return np.clip(np.ceil(x - 1e-9), 0, self.H).astype(np.int64)
+        return np.clip(np.ceil(x - 1e-9) + self.slack, 0, self.H).astype(np.int64)
 
     @property
     def fit_cost(self) -> float:

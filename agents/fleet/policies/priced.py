@@ -2,20 +2,24 @@
 under the searched prices, and a repair step keeps the fleet's limits.
 
 Each shift every vehicle's state ``(h, d)`` is read from the env's truth (its pad's true
-volume and K, as the bound knows them: a reference, never deployable) and its program
+volume and K, as the bound knows them: a reference, never deployable), less a safety
+margin of ``safety`` hot shifts (the bound's clock is optimistic by design), and its program
 gives the cost of each action (:func:`~.lagrangian.q_values`). The repair step:
 
 1. **Services.** Vehicles whose program prefers a service ask for one; they are served in
    order of how much the program prefers it (the cost of their best other action minus
-   the service's, largest first) while a spare is in stock and there is room
+   the service's, largest first; a pad that would not last a hot shift first) while a
+   spare is in stock and there is room
    (:func:`brake_env.env.fleet.rules.room_for`: a crew slot at a window, a free bay for a
    visit, none for a vehicle down in the shop). The others are not sent.
 2. **Duties** (between windows; vehicles not down and not serviced). Their cost of a
    duty is the program's cost of it, prices taken out, minus the cost of parking. The
    hot need is filled first, by the vehicles of least extra cost of the ramp over the
-   drift (ties: healthiest first), each only if its cost of the ramp is below the hot
-   shortfall it saves; then the mild need by the least cost of the drift, each only if
-   below the mild shortfall. The rest park: beyond the needs a shift earns nothing.
+   drift (ties: healthiest first; a pad that would not last a hot shift last); then the
+   mild need by the least cost of the drift. The rest park: beyond the needs a shift
+   earns nothing. (A threshold "send only if the duty costs less than the shortfall"
+   was tried and dropped: the program's cost of a duty holds the life it uses at the
+   relaxed prices, which can exceed the shortfall, and it left the needs unfilled.)
 3. **Spares** by (s, S) (:func:`~.rules.reorder`).
 
 Every action is within the env's mask.
@@ -46,14 +50,17 @@ class PricedPolicy:
         prices: The searched prices.
         program: ``solve(model, prices)``.
         s, S: Reorder rule of the spares.
+        safety: Hot shifts taken off each pad's state before it acts: the bound's state
+            is rounded up and its wear is the expectation, so a pad on its last model
+            shift may fail in the env.
     """
 
     def __init__(
         self, env: Any, model: BoundModel, prices: Prices, program: Program, s: int = 2,
-        S: int = 4,
+        S: int = 4, safety: float = 1.0,
     ) -> None:  # fmt: skip
         self.env, self.model, self.prices, self.program = env, model, prices, program
-        self.s, self.S = s, S
+        self.s, self.S, self.safety = s, S, safety
 
     def predict(
         self,
@@ -66,6 +73,7 @@ class PricedPolicy:
         c, shop = base.config, base.shop
         truth = base.truth()
         h = self.model.state(truth["volume_frac"], truth["wear_coeff"])
+        h = np.maximum(h - int(np.ceil(self.safety * self.model.units)), 0)
         duty = self.decide(base.shift, h, shop.down.copy(), shop.stock, shop.free_bays())
         fits = int((duty == SERVICE).sum())
         order = reorder(shop.stock, shop.in_transit, fits, self.s, self.S, c.max_order)
@@ -89,6 +97,7 @@ class PricedPolicy:
         duty = np.full(len(h), PARK, dtype=np.int64)
         others = np.min(np.delete(q, SERVICE, axis=0), axis=0)
         prefer = others - q[SERVICE]  # > 0: the program prefers the service
+        prefer[h < self.model.units] = np.inf  # would not last a hot shift: must-do
         slots = c.window_slots
         for v in np.argsort(-prefer, kind="stable"):
             if prefer[v] <= 0 or stock == 0:
@@ -109,8 +118,10 @@ class PricedPolicy:
         hot, mild = np.full(len(h), np.inf), np.full(len(h), np.inf)
         hot[cand] = (q[HOT] + p.hot[t] + p.work[t] - q[PARK])[cand]  # the ramp's, prices out
         mild[cand] = (q[MILD] + p.work[t] - q[PARK])[cand]
-        rank = cand[np.lexsort((-h[cand], hot[cand] - mild[cand]))]
-        sent = [v for v in rank if hot[v] < c.costs.shortfall][: c.hot_need]
+        fails = h < self.model.units  # its pad would not last a hot shift
+        rank = cand[np.lexsort((-h[cand], hot[cand] - mild[cand], fails[cand]))]
+        sent = rank[: c.hot_need]
         duty[sent] = HOT
-        rest = [v for v in cand[np.lexsort((-h[cand], mild[cand]))] if v not in sent]
-        duty[[v for v in rest if mild[v] < c.costs.mild_shortfall][: c.mild_need]] = MILD
+        worn = h < self.model.mild_units
+        rest = [v for v in cand[np.lexsort((-h[cand], mild[cand], worn[cand]))] if v not in sent]
+        duty[rest[: c.mild_need]] = MILD

@@ -215,3 +215,11 @@ def test_priced_policy_respects_the_masks(atlas):
     eps = run_episodes(env, policy, [0, 1], check_masks=True)
     costs = np.array([e.per_vehicle_shift for e in eps])
     assert np.all(np.isfinite(costs)) and np.all(costs >= 0)
+
+
+def test_slack_gives_every_pad_more_life(atlas):
+    cfg = FleetConfig(episode_shifts=40)
+    m0, m1 = (BoundModel.build(cfg, atlas, units=10, slack_shifts=s) for s in (0.0, 1.0))
+    v, k = np.array([0.9, 0.5]), np.array([2e-6, 2.2e-6])
+    np.testing.assert_array_equal(m1.state(v, k), np.minimum(m0.state(v, k) + 10, m1.H))
+    assert m1.new_prob.sum() == pytest.approx(1.0) and m1.new_prob[:10].sum() == 0.0
