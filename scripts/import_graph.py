@@ -7,8 +7,8 @@ run); for tests/test_architecture.py and the counts in docs/architecture.md.
 
 prints the circles and each import inside a function by its reason, for the modules whose
 name starts with PREFIX (default: all five packages) of the checkout at ROOT (default: here).
-``--counts`` prints the table of docs/architecture.md (modules and lines per package and
-room, circles, imports inside functions by reason); ``--write`` puts it there between the
+``--counts`` prints the table of docs/architecture.md (modules per package and room,
+circles, imports inside functions by reason); ``--write`` puts it there between the
 GENERATED markers (tests/test_architecture.py checks that the page holds today's table).
 """
 
@@ -231,13 +231,13 @@ def _rooms(root: Path) -> list[str]:
 
 def counts(root: Path = ROOT) -> str:
     """The Markdown table of docs/architecture.md: each room's modules (its own files, not
-    its sub-packages') and lines, then the graph's circles and inner imports by reason."""
+    its sub-packages'), then the graph's circles and inner imports by reason. (No line
+    counts: they would change with every edit; ``wc -l`` gives them.)"""
     mods = graph(root)
-    rows = ["| package | modules | lines |", "|---|---:|---:|"]
+    rows = ["| package | modules |", "|---|---:|"]
     for room in _rooms(root):
         files = sorted((root / room.replace(".", "/")).glob("*.py"))
-        lines = sum(f.read_text().count("\n") for f in files)
-        rows.append(f"| `{room}` | {len(files)} | {lines:,} |")
+        rows.append(f"| `{room}` | {len(files)} |")
     reasons = inner_imports_by_reason(mods)
     rows += [
         "",

@@ -91,7 +91,7 @@ def test_numpy_integers_in_float_fields() -> None:
         (lambda: VehicleParams(n_braked_wheels=np.float32(4)), "n_braked_wheels"),
         (lambda: AtlasSpec(n_speed=np.float64(23)), "AtlasSpec.n_speed must be an int"),
         (lambda: EnvConfig(decision_interval=np.float32(500)), "decision_interval"),
-        (lambda: EnvConfig(truth=np.int64(1)), "truth must be bool"),
+        (lambda: EnvConfig(truth=np.int64(1)), "truth must be a bool"),
     ],
 )
 def test_configs_still_refuse_bools_nan_and_wrong_kinds(make, match) -> None:

@@ -61,7 +61,7 @@ class PricedPolicy:
     """
 
     def __init__(
-        self, env: Any, model: BoundModel, prices: Prices, program: Program, s: int = 2,
+        self, env: Any, model: BoundModel, prices: Prices, program: Program, *, s: int = 2,
         S: int = 4, safety: float = 1.0,
     ) -> None:  # fmt: skip
         self.env, self.model, self.prices, self.program = env, model, prices, program
