@@ -17,13 +17,18 @@ from sim2real.effects.library import parse_effect
 from sim2real.effects.truth import TruthSpec, simulate_truth
 from sim2real.validation.report import write_outputs
 
+# The demo's budget: this many short truth runs (fast wear, K 2e-5) are diagnosed.
+DEMO_RUNS = 6
+
 
 def demo_stage(ctx: DemoContext) -> tuple[dict[str, Any], str]:
     """One withheld-effect case: truth logs with speed-dependent friction, diagnosed."""
     out = ctx.out / "sim2real"
     atlas = Atlas.load(ctx.atlas_file)
     effect = parse_effect("speed_friction:a=0.2")
-    ds = DatasetSpec(n_train=6, n_id=0, n_ood_slow=0, n_ood_fast=0, wear=WearRegime(2e-5, 2e-6))
+    ds = DatasetSpec(
+        n_train=DEMO_RUNS, n_id=0, n_ood_slow=0, n_ood_fast=0, wear=WearRegime(2e-5, 2e-6)
+    )
     t0 = time.perf_counter()
     logs = simulate_truth(atlas.spec, [effect], TruthSpec(ds), seed=ctx.args.seed)
     write_event_log(logs["train"], out / "real.parquet")
@@ -33,7 +38,7 @@ def demo_stage(ctx: DemoContext) -> tuple[dict[str, Any], str]:
     print(f"withheld effect: {effect.key}\n{text}\n({seconds:.1f} s)")
     md = (
         f"## Sim-to-real gap diagnosis (withheld effect: `{effect.key}`)\n\n"
-        f"6 short truth runs ({len(logs['train'])} events), {seconds:.0f} s."
+        f"{DEMO_RUNS} short truth runs ({len(logs['train'])} events), {seconds:.0f} s."
         f" Verdict: **{res.verdict}**.\n\n```\n{text}\n```\n\n"
         "![residual maps](sim2real/figures/residual_maps.png)\n"
         "![before/after](sim2real/figures/before_after.png)\n"

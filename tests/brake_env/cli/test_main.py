@@ -49,11 +49,20 @@ def test_simulate_same_seed_same_output(tmp_path) -> None:
 
 
 def test_atlas_command_and_demo(tmp_path, monkeypatch) -> None:
+    import agents.commands.cli
     import agents.fleet.commands.cli
+    import sim2real.commands.demo
 
-    # The fleet stage at a tiny budget (its own test covers it; here: the demo runs it).
+    # The comparison's, the fleet's and the diagnosis' stages at tiny budgets, in this
+    # process (the first two have tests of their own: test_train_compare.py,
+    # fleet/study/test_run.py; here the demo runs every stage into one report).
     tiny = {"heuristics": ("threshold",), "shifts": 20, "trials": 1, "episodes": 2}
     monkeypatch.setattr(agents.fleet.commands.cli, "DEMO_FLEET", tiny)
+    monkeypatch.setattr(agents.fleet.commands.cli, "DEMO_WORKERS", 0)
+    monkeypatch.setattr(agents.fleet.commands.cli, "DEMO_PREDICTORS", ("none", "oracle"))
+    monkeypatch.setattr(sim2real.commands.demo, "DEMO_RUNS", 3)
+    for name, value in (("DEMO_TUNE_PADS", 2), ("DEMO_EVAL_PADS", 2), ("DEMO_WORKERS", 0)):
+        monkeypatch.setattr(agents.commands.cli, name, value)
     assert main(["atlas", "--out", str(tmp_path / "atlas"), "--quiet"]) == 0
     info = json.loads((tmp_path / "atlas" / "atlas.json").read_text())
     assert info["wear_per_event_ratio_end_fresh"] >= 1.2
@@ -62,6 +71,8 @@ def test_atlas_command_and_demo(tmp_path, monkeypatch) -> None:
     assert main(["demo", "--out", str(tmp_path / "demo"), *SMALL]) == 0
     report = (tmp_path / "demo/report.md").read_text()
     assert "(cannot-stop: the" in report and "## The fleet study" in report
+    for section in ("## Prognostics", "## Maintenance cost by predictor", "## Sim-to-real gap"):
+        assert section in report
 
 
 def test_bad_arguments_are_named(tmp_path, capsys) -> None:
