@@ -1,4 +1,5 @@
 # Two entry points: `make demo` and `make test`. Each builds .venv on first use.
+SHELL  := /bin/bash
 PYTHON ?= python3
 VENV   := .venv
 BIN    := $(VENV)/bin
@@ -19,11 +20,17 @@ venv: $(STAMP)
 demo: $(STAMP)
 	$(BIN)/brakewear demo --out $(OUT) --seed $(SEED)
 
-# Two pytest workers, one BLAS/torch thread each (more threads than cores slows both).
+# ruff, then mypy beside the tests (it takes the CPU the tests leave idle; its report is
+# printed when both are done, and the tests' summary line again last); two pytest workers,
+# one BLAS/torch thread each (more threads than cores slows both).
 test: $(STAMP)
 	$(BIN)/ruff check .
-	$(BIN)/mypy
-	MPLBACKEND=Agg OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 $(BIN)/python -m pytest -q -n 2 --dist loadfile --durations=20
+	@$(BIN)/mypy > $(VENV)/mypy.log 2>&1 & types=$$!; \
+	MPLBACKEND=Agg OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 $(BIN)/python -m pytest -q -n 2 \
+	  --dist loadfile --durations=20 | tee $(VENV)/pytest.log; tests=$${PIPESTATUS[0]}; \
+	wait $$types; typed=$$?; echo "== mypy"; cat $(VENV)/mypy.log; \
+	echo "== pytest"; tail -n 1 $(VENV)/pytest.log; \
+	[ $$tests -eq 0 ] && [ $$typed -eq 0 ]
 
 lint: $(STAMP)
 	$(BIN)/ruff check .
