@@ -1,6 +1,7 @@
 """What every env of the package shares (BrakeWear-v0, BrakeWearFleet-v0, and a third one
 would too): the checks of their configs' common fields, ``gym.make`` keyword arguments
-turned into a validated config, the render mode and the atlas an env runs on."""
+turned into a validated config, the render mode, the registered entry point, the atlas an
+env runs on, and the check that a wrapper wraps the env it was made for."""
 
 from __future__ import annotations
 
