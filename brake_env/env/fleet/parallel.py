@@ -26,7 +26,8 @@ from typing import Any
 import numpy as np
 from gymnasium import spaces
 from numpy.typing import NDArray
-from pettingzoo import ParallelEnv
+from pettingzoo import AECEnv, ParallelEnv
+from pettingzoo.utils.conversions import parallel_to_aec
 
 from brake_env.env.fleet.config import FleetConfig
 from brake_env.env.fleet.env import BrakeWearFleetEnv
@@ -151,8 +152,18 @@ class BrakeWearFleetParallelEnv(ParallelEnv[str, dict[str, NDArray[Any]], int]):
     def close(self) -> None:
         self.env.close()
 
+    @property
+    def state_space(self) -> spaces.Box:
+        """The space of :meth:`state`: the single env's observation space."""
+        box = self.env.observation_space
+        assert isinstance(box, spaces.Box)
+        return box
+
     def state(self) -> NDArray[np.float32]:
-        """The single env's whole observation (every vehicle and the fleet)."""
+        """The single env's whole observation (every vehicle and the fleet): the global
+        state a centralised critic takes."""
+        if self.env.pads is None:
+            raise RuntimeError(f"{NAME}: call reset() first")
         return self.env._observation()
 
     def _observations(self, obs: NDArray[np.float32]) -> dict[str, dict[str, NDArray[Any]]]:
@@ -176,3 +187,14 @@ class BrakeWearFleetParallelEnv(ParallelEnv[str, dict[str, NDArray[Any]], int]):
         }
         out[STORE] = info
         return out
+
+
+def parallel_env(**kwargs: Any) -> BrakeWearFleetParallelEnv:
+    """PettingZoo's factory convention (``module.parallel_env()``): the Parallel env."""
+    return BrakeWearFleetParallelEnv(**kwargs)
+
+
+def env(**kwargs: Any) -> AECEnv[str, dict[str, NDArray[Any]], int]:
+    """PettingZoo's factory convention (``module.env()``): the AEC version, agents acting
+    in turn (``pettingzoo.utils.parallel_to_aec``), the shift run once all have acted."""
+    return parallel_to_aec(BrakeWearFleetParallelEnv(**kwargs))

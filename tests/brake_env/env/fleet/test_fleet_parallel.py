@@ -95,3 +95,35 @@ def test_wrapper_resets_a_vehicle_with_a_new_pad(atlas) -> None:
     # Its events restart at 0: the slot was reset (else the predictor rejects the batch).
     _, _, _, _, info = env.step(np.array([0, 1, 0, 0]))
     assert info["rul_estimate"]["rul_mean"][0] == 5000.0
+
+
+# The store's spaces differ from the vehicles' by design (it orders spares); PettingZoo's
+# api_test warns about that, not about an error.
+@pytest.mark.filterwarnings("ignore:Agents have different observation space sizes")
+@pytest.mark.filterwarnings("ignore:Observations are different shapes")
+@pytest.mark.filterwarnings("ignore:Observation is not a NumPy array")
+@pytest.mark.filterwarnings("ignore:Observation space for each agent probably should be")
+@pytest.mark.filterwarnings("ignore:We recommend agents to be named")
+def test_factories_state_and_the_aec_version(atlas) -> None:
+    from pettingzoo.test import api_test
+
+    from brake_env.env.fleet import parallel
+
+    par = parallel.parallel_env(atlas=atlas, **SMALL)
+    with pytest.raises(RuntimeError, match="reset"):
+        par.state()
+    obs, _ = par.reset(seed=3)
+    single = BrakeWearFleetEnv(atlas=atlas, **SMALL)
+    flat, _ = single.reset(seed=3)
+    # The state is the single env's observation, step by step on the same actions.
+    for _ in range(15):
+        state = par.state()
+        assert par.state_space.contains(state)
+        np.testing.assert_array_equal(state, flat)
+        actions = {
+            a: int(par.action_space(a).sample(mask=obs[a]["action_mask"])) for a in par.agents
+        }
+        obs, *_ = par.step(actions)
+        joint = [actions[a] for a in par.possible_agents]
+        flat, *_ = single.step(np.array(joint, dtype=np.int64))
+    api_test(parallel.env(atlas=atlas, **SMALL), num_cycles=200)
