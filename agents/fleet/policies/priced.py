@@ -38,9 +38,11 @@ on tuning seeds 10000..10019, never on the evaluation seeds; defaults ``margin =
 ``shop_limit = 20``, ``damping = 0.25``), 2026-11-27: **2.6773** per vehicle-shift against
 the bound's 1.5713, a paired gap of 1.106 [0.959, 1.277] (ratio 1.70 [1.58, 1.87]); on the
 same episodes the untuned (n, N) = (14, 3) rule on the oracle's expected RUL costs 5.5132
-(the policy minus it: -2.836 [-4.995, -1.657]). Still far from the bound (which is
-optimistic by design: a relaxation with the pads' K known). The policy reads the env's
-truth: a reference, not a deployable policy.
+(the policy minus it: -2.836 [-4.995, -1.657]). With the same services but the ramp
+ranked healthiest first (``rank="rul"``, price-free) it costs 2.9860 on those episodes
+(one episode at 4.83, unscheduled visits): the program's ranking helps. Still far from
+the bound (which is optimistic by design: a relaxation with the pads' K known). The
+policy reads the env's truth: a reference, not a deployable policy.
 """
 
 from __future__ import annotations
