@@ -217,6 +217,33 @@ def test_priced_policy_respects_the_masks(atlas):
     assert np.all(np.isfinite(costs)) and np.all(costs >= 0)
 
 
+def test_priced_policy_services_and_duties(atlas):
+    # default fleet (window period 14, 3 slots, 2 bays, needs 6 hot + 4 mild), 20 units
+    cfg = FleetConfig(episode_shifts=60)
+    env = BrakeWearFleetEnv(cfg, atlas=atlas)
+    model = BoundModel.build(cfg, atlas, units=20)
+    zero = Prices.zeros(cfg)
+    policy = PricedPolicy(env, model, zero, solve(model, zero), margin=0.0, shop_limit=5.0)
+    life = np.array([1.5, 3, 4, 6, 8, 10, 20, 20, 20, 20, 20, 20])  # hot shifts
+    h = (life * model.units).astype(np.int64)
+    down = np.zeros(12, dtype=np.int64)
+    # at a window (shift 13): below 13 shifts of life, least first, within the 3 slots
+    duty = policy.decide(13, h, down, stock=4, bays=2)
+    assert list(np.flatnonzero(duty == SERVICE)) == [0, 1, 2]
+    assert np.all(duty[3:] == PARK)
+    # between windows: only the must-do (1.5 < must = 2) takes a visit; a vehicle down in
+    # the shop below shop_limit is served without a bay; the worn pads are off the ramp
+    down[2] = 1
+    duty = policy.decide(3, h, down, stock=4, bays=1)
+    assert list(np.flatnonzero(duty == SERVICE)) == [0, 2]
+    assert (duty == HOT).sum() == cfg.hot_need and (duty == MILD).sum() == cfg.mild_need
+    # no spares: nothing served, the must-do pad parks
+    duty = policy.decide(3, h, np.zeros(12, dtype=np.int64), stock=0, bays=2)
+    assert not np.any(duty == SERVICE) and duty[0] == PARK
+    with pytest.raises(ValueError, match="damping"):
+        PricedPolicy(env, model, zero, solve(model, zero), damping=2.0)
+
+
 def test_slack_gives_every_pad_more_life(atlas):
     cfg = FleetConfig(episode_shifts=40)
     m0, m1 = (BoundModel.build(cfg, atlas, units=10, slack_shifts=s) for s in (0.0, 1.0))
