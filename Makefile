@@ -22,12 +22,13 @@ demo: $(STAMP)
 
 # ruff, then mypy beside the tests (it takes the CPU the tests leave idle; its report is
 # printed when both are done, and the tests' summary line again last); two pytest workers,
-# one BLAS/torch thread each (more threads than cores slows both).
+# whole files each and the files that use Ray on one of them (tests/conftest.py), one
+# BLAS/torch thread each (more threads than cores slows both).
 test: $(STAMP)
 	$(BIN)/ruff check .
 	@$(BIN)/mypy > $(VENV)/mypy.log 2>&1 & types=$$!; \
 	MPLBACKEND=Agg OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 $(BIN)/python -m pytest -q -n 2 \
-	  --dist loadfile --durations=20 | tee $(VENV)/pytest.log; tests=$${PIPESTATUS[0]}; \
+	  --dist loadgroup --durations=20 | tee $(VENV)/pytest.log; tests=$${PIPESTATUS[0]}; \
 	wait $$types; typed=$$?; echo "== mypy"; cat $(VENV)/mypy.log; \
 	echo "== pytest"; tail -n 1 $(VENV)/pytest.log; \
 	[ $$tests -eq 0 ] && [ $$typed -eq 0 ]

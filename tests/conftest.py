@@ -40,3 +40,13 @@ def local_ray():
     runner = Runner(workers=2)  # starts Ray with the project's import path for the workers
     yield ray
     runner.__exit__()
+
+
+def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+    """For ``pytest -n 2 --dist loadgroup`` (make test): whole files per worker (their
+    module fixtures built once), and every file that uses the local Ray on one worker, so
+    that one Ray is started, not one per worker."""
+    uses_ray = {item.path for item in items if "local_ray" in getattr(item, "fixturenames", ())}
+    for item in items:
+        group = "ray" if item.path in uses_ray else str(item.path)
+        item.add_marker(pytest.mark.xdist_group(group))

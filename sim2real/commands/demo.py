@@ -13,12 +13,14 @@ from brake_env.model.atlas import Atlas
 from brake_env.model.regime import WearRegime
 from sim2real.diagnosis.diagnose import diagnose
 from sim2real.diagnosis.rul import rul_scorer
-from sim2real.effects.library import parse_effect
+from sim2real.effects.library import parse_effect, registry
 from sim2real.effects.truth import TruthSpec, simulate_truth
 from sim2real.validation.report import write_outputs
 
-# The demo's budget: this many short truth runs (fast wear, K 2e-5) are diagnosed.
+# The demo's budget: this many short truth runs (fast wear, K 2e-5) are diagnosed, against
+# these candidate effects (None: the whole library).
 DEMO_RUNS = 6
+DEMO_CANDIDATES: tuple[str, ...] | None = None
 
 
 def demo_stage(ctx: DemoContext) -> tuple[dict[str, Any], str]:
@@ -32,7 +34,8 @@ def demo_stage(ctx: DemoContext) -> tuple[dict[str, Any], str]:
     t0 = time.perf_counter()
     logs = simulate_truth(atlas.spec, [effect], TruthSpec(ds), seed=ctx.args.seed)
     write_event_log(logs["train"], out / "real.parquet")
-    res = diagnose(logs["train"], atlas, seed=ctx.args.seed, rul=rul_scorer(atlas))
+    candidates = None if DEMO_CANDIDATES is None else [registry()[n] for n in DEMO_CANDIDATES]
+    res = diagnose(logs["train"], atlas, candidates, seed=ctx.args.seed, rul=rul_scorer(atlas))
     seconds = time.perf_counter() - t0
     text = write_outputs(res, out, {"seconds": seconds, "withheld_effect": effect.key})
     print(f"withheld effect: {effect.key}\n{text}\n({seconds:.1f} s)")

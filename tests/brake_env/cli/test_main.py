@@ -61,6 +61,7 @@ def test_atlas_command_and_demo(tmp_path, monkeypatch) -> None:
     monkeypatch.setattr(agents.fleet.commands.cli, "DEMO_WORKERS", 0)
     monkeypatch.setattr(agents.fleet.commands.cli, "DEMO_PREDICTORS", ("none", "oracle"))
     monkeypatch.setattr(sim2real.commands.demo, "DEMO_RUNS", 3)
+    monkeypatch.setattr(sim2real.commands.demo, "DEMO_CANDIDATES", ("speed_friction", "tc_bias"))
     for name, value in (("DEMO_TUNE_PADS", 2), ("DEMO_EVAL_PADS", 2), ("DEMO_WORKERS", 0)):
         monkeypatch.setattr(agents.commands.cli, name, value)
     assert main(["atlas", "--out", str(tmp_path / "atlas"), "--quiet"]) == 0
@@ -73,6 +74,7 @@ def test_atlas_command_and_demo(tmp_path, monkeypatch) -> None:
     assert "(cannot-stop: the" in report and "## The fleet study" in report
     for section in ("## Prognostics", "## Maintenance cost by predictor", "## Sim-to-real gap"):
         assert section in report
+    assert "Verdict: **speed_friction**" in report  # the withheld effect is named
 
 
 def test_bad_arguments_are_named(tmp_path, capsys) -> None:
