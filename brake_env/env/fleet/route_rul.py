@@ -121,6 +121,20 @@ class RouteTracker:
             self.base[:, vehicles] = np.nan
             self.known[vehicles] = False
 
+    def after_step(
+        self, ev: ShiftEvents | None, route: NDArray[np.int64], pos: NDArray[np.int64]
+    ) -> tuple[RULEstimate | None, NDArray[np.intp]]:
+        """Take a shift in: its events ``ev`` on env routes ``route`` (``info["vehicles"]
+        ["route"]``), then the pads at age ``pos`` 0 (installed after their events) as new;
+        the predictor's estimate and the vehicles it is for (none: nobody braked)."""
+        est, read = None, np.zeros(0, dtype=np.intp)
+        if ev is not None and ev.n_done.any():
+            self.new_pads(np.flatnonzero((ev.n_done > 0) & (ev.first_event == 0)))
+            est = self.feed(ev, route)
+            read = np.flatnonzero(self.known & (ev.n_done > 0))
+        self.new_pads(np.flatnonzero(pos == 0))
+        return est, read
+
     def feed(self, ev: ShiftEvents, route: NDArray[np.int64]) -> RULEstimate | None:
         """Hand the shift's events (on env routes ``route``) to the predictor; its estimate
         after each vehicle's last event (None if nobody's events were handed over)."""

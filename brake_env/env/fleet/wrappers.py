@@ -130,15 +130,11 @@ class FleetRULObservation(
 
     def _feed(self, info: dict[str, Any]) -> None:
         base: Any = self.env.unwrapped
-        ev: ShiftEvents | None = base.shift_events()
-        tracker = self._tracker
-        assert tracker is not None
-        if ev is not None and ev.n_done.any():
-            tracker.new_pads(np.flatnonzero((ev.n_done > 0) & (ev.first_event == 0)))
-            est = tracker.feed(ev, info["vehicles"]["route"])
-            if est is not None:
-                self._check(est, np.flatnonzero(tracker.known & (ev.n_done > 0)))
-        tracker.new_pads(np.flatnonzero(base.pads.pos == 0))
+        assert self._tracker is not None
+        route = info["vehicles"]["route"]
+        est, read = self._tracker.after_step(base.shift_events(), route, base.pads.pos)
+        if est is not None:
+            self._check(est, read)
         self._from_tracker()
 
     def _from_tracker(self) -> None:
