@@ -9,7 +9,8 @@ around the 13 working shifts to the next window) hold every limit a rule could w
 room for a forecast's error late in life (the twin's hot-route RMSE: under 1% of the hot life
 past 20% of it, docs/results/prognostics.md).
 
-The objective is the mean cost per vehicle-shift over the tuning seeds, every trial on the same seeds (common random numbers). Heuristics other than the (s, S) rule and
+The objective is the mean cost per vehicle-shift over the tuning seeds, every trial on the
+same seeds (common random numbers). Heuristics other than the (s, S) rule and
 the combination keep the default reorder rule (s, S) = (2, 4); the (s, S) heuristic is the
 threshold with its reorder point and level tuned as well.
 
