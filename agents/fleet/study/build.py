@@ -28,7 +28,8 @@ from brake_env.prognostics.registry import ORACLE
 def rul_env(
     config: FleetStudyConfig, atlas: Atlas, predictor: str, fitted: Predictor | None
 ) -> Any:
-    """The fleet env with ``predictor``'s RUL appended (``rul_mean`` per vehicle)."""
+    """The fleet env with ``predictor``'s RUL appended (``rul_mean`` on the hot and the mild
+    route per vehicle, in shifts)."""
     env = BrakeWearFleetEnv(config.fleet, atlas=atlas)
     if predictor == ORACLE:
         return ExpectedRULObservation(env)
