@@ -52,7 +52,7 @@ from brake_env.env.fleet.spares import SparesRule
 
 STORE = "store"
 NAME = "brakewear_fleet_v0"
-INFO_MODES = ("flat", "nested")
+INFO_MODES = ("flat", "nested", "none")
 # info["counts"] of a step, in the env's order (tested equal): the flat infos' count_* keys.
 COUNT_KEYS = ("window_fits", "shop_fits", "visits", "corrective_fits", "failures",
               "breakdowns", "deferred", "refused", "ordered", "arrived", "on_hot", "on_mild",
@@ -73,8 +73,10 @@ class BrakeWearFleetParallelEnv(ParallelEnv[str, dict[str, NDArray[Any]], int]):
         spares: None (the ``store`` agent reorders) or an (s, S) pair or
             :class:`~brake_env.env.fleet.spares.SparesRule`: spares by that rule, no
             ``store`` agent, every agent with the same spaces.
-        infos: ``"flat"`` (numbers, the same keys every step) or ``"nested"`` (the
-            detailed layout; module docstring).
+        infos: ``"flat"`` (numbers, the same keys every step), ``"nested"`` (the
+            detailed layout; module docstring) or ``"none"`` (empty dicts: the fastest
+            through TorchRL, which turns every info entry of every agent into a tensor
+            each step; :meth:`detailed_info` still has the whole info).
         predictor_seed: Seed of the fit of a predictor given by name.
         **kwargs: Fields of :class:`FleetConfig`, and ``atlas``.
     """
@@ -236,6 +238,8 @@ class BrakeWearFleetParallelEnv(ParallelEnv[str, dict[str, NDArray[Any]], int]):
         info under the store."""
         self._info = info
         veh = info["vehicles"]
+        if self.infos == "none":
+            return {a: {} for a in self.possible_agents}
         if self.infos == "nested":
             out: dict[str, dict[str, Any]] = {
                 a: {k: x[v] for k, x in veh.items()} for v, a in enumerate(self.vehicles)

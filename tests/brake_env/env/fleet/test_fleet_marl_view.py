@@ -141,6 +141,13 @@ def test_nested_infos_keep_the_detailed_layout(atlas) -> None:
     assert set(infos["vehicle_0"]) == set(infos[STORE]["vehicles"])
 
 
+def test_no_infos_still_keeps_the_detailed_one(atlas) -> None:
+    env = BrakeWearFleetParallelEnv(atlas=atlas, infos="none", spares=S_S, **SMALL)
+    _, infos = env.reset(seed=0)
+    _, _, _, _, infos = env.step({})
+    assert infos == {a: {} for a in env.possible_agents} and "costs" in env.detailed_info()
+
+
 def test_a_fitted_predictor_gives_the_view_its_rul(atlas) -> None:
     env = BrakeWearFleetParallelEnv(
         atlas=atlas, predictor=NoPrognostics(mean_life_events=5000.0), spares=S_S, **SMALL
@@ -198,3 +205,19 @@ def test_torchrl_wrapper_stacks_the_flat_infos_and_keeps_the_masks(atlas) -> Non
     assert mask.gather(-1, action.unsqueeze(-1)).all()  # random actions drawn within masks
     assert td["vehicle", "info", "rul"].shape == (20, 3)
     assert td["state"].shape == (20, par.state_space.shape[0])
+
+
+def test_supersuit_vectorises_the_vehicles_with_the_spares_rule(atlas) -> None:
+    ss = pytest.importorskip("supersuit")
+    with pytest.raises(AssertionError, match="observation spaces not consistent"):
+        ss.pettingzoo_env_to_vec_env_v1(BrakeWearFleetParallelEnv(atlas=atlas, **SMALL))
+    par = BrakeWearFleetParallelEnv(atlas=atlas, predictor="oracle", spares=S_S, **SMALL)
+    venv = ss.concat_vec_envs_v1(ss.pettingzoo_env_to_vec_env_v1(par), 2, num_cpus=0)
+    obs, _ = venv.reset(seed=0)
+    # Two copies x three vehicles; the masks come through as observation entries (SB3's
+    # MaskablePPO would need them handed over as masks by a wrapper of one's own).
+    assert obs["observation"].shape == (6, len(par.view_features))
+    assert obs["action_mask"].shape == (6, 4)
+    obs, rewards, _, _, infos = venv.step(np.full(6, 2))  # every vehicle parks
+    assert rewards.shape == (6,) and len(infos) == 6
+    assert np.all(rewards[:3] == rewards[0])  # one fleet, one reward
