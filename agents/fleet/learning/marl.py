@@ -36,9 +36,6 @@ from brake_env.env.fleet.rules import action_mask
 from brake_env.env.fleet.spaces import read_observation
 from brake_env.env.fleet.spares import SparesRule
 
-GROUP = "vehicle"
-OBS = (GROUP, "observation", "observation")
-
 
 @dataclass(frozen=True)
 class MarlTraining:

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import torch
@@ -19,9 +19,13 @@ from torchrl.envs import PettingZooWrapper, RewardScaling, TransformedEnv
 from torchrl.modules import MaskedCategorical, MultiAgentMLP, ProbabilisticActor
 from torchrl.objectives import ClipPPOLoss, ValueEstimators
 
-from agents.fleet.learning.marl import GROUP, OBS, MarlTraining
 from agents.fleet.settings import IMITATION_SEED0
 
+if TYPE_CHECKING:  # marl imports this module where it trains: no import back at run time
+    from agents.fleet.learning.marl import MarlTraining
+
+GROUP = "vehicle"  # TorchRL's group of agents: every vehicle
+OBS = (GROUP, "observation", "observation")  # where PettingZooWrapper puts a vehicle's view
 LOG_PROB = (GROUP, "action_log_prob")
 
 
