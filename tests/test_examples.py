@@ -54,3 +54,13 @@ def test_fleet_policies_example() -> None:
     assert len(out) == 4 and "perfect-information reference" in out
     assert all(np.isfinite(r["cost"]) and r["cost"] >= 0 for r in out.values())
     assert out["perfect-information reference"]["failures"] == 0
+
+
+def test_fleet_marl_example() -> None:
+    import pytest
+
+    pytest.importorskip("torchrl")
+    out = load("fleet_marl").main(shifts=30, imitate=1, frames=60, eval_seeds=2)
+    assert set(out["cost"]) == {"rule", "shared MAPPO"}
+    assert all(np.isfinite(c) and c >= 0 for c in out["cost"].values())
+    assert out["agreement"] > 0.8 and len(out["history"]) == 1

@@ -43,6 +43,7 @@ from numpy.typing import NDArray
 from agents.fleet.policies.view import FleetLayout, FleetView
 from brake_env.env.fleet.rules import fill_needs, room_for
 from brake_env.env.fleet.shop import HOT, MILD, PARK, SERVICE
+from brake_env.env.fleet.spares import reorder  # the rule's one home, re-exported here
 
 I64 = NDArray[np.int64]
 DUTIES = ("roster", "rul", "due-first")
@@ -181,13 +182,6 @@ class FleetRule:
 
     def __repr__(self) -> str:
         return f"FleetRule({self.name}, {self.params})"
-
-
-def reorder(stock: int, transit: int, fits: int, s: int, S: int, max_order: int) -> int:
-    """(s, S): when stock + in transit - fits sent now is below ``s``, order up to ``S``
-    (at most ``max_order``); else nothing."""
-    position = stock + transit - fits
-    return 0 if position >= s else int(np.clip(S - position, 0, max_order))
 
 
 # ---------------------------------------------------------------- the heuristics of issue 20

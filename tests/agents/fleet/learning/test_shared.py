@@ -82,15 +82,27 @@ def test_the_pettingzoo_view_plus_the_rul(atlas) -> None:
     pytest.importorskip("pettingzoo")
     from brake_env.env.fleet.parallel import BrakeWearFleetParallelEnv
 
-    pz = BrakeWearFleetParallelEnv(CFG, atlas=atlas)
+    pz = BrakeWearFleetParallelEnv(CFG, atlas=atlas, predictor="oracle", spares=S_S)
     venv = SharedFleetVecEnv(lambda: oracle_fleet_env(CFG, atlas), 1, *S_S)
     venv.seed(4)
     obs = venv.reset()
     pz_obs, _ = pz.reset(seed=4)
-    for v in range(N):
-        own = pz_obs[f"vehicle_{v}"]["observation"]
-        np.testing.assert_array_equal(np.delete(obs[v], np.arange(N_VF, N_VF + R)), own)
-        np.testing.assert_array_equal(venv.action_masks()[v], pz_obs[f"vehicle_{v}"]["action_mask"])
+    rul = pz.view_features.index("rul")
+    for _ in range(3):
+        for v in range(N):
+            own = pz_obs[f"vehicle_{v}"]["observation"]
+            # The adapter's view: own features, the RUL on each route, the fleet's; the
+            # PettingZoo view has the same, the hot RUL after the fleet's features and the
+            # dispatcher's.
+            np.testing.assert_array_equal(
+                np.delete(obs[v], np.arange(N_VF, N_VF + R)), own[: N_VF + len(FLEET_FEATURES)]
+            )
+            assert own[rul] == obs[v][N_VF]
+            mask = pz_obs[f"vehicle_{v}"]["action_mask"]
+            np.testing.assert_array_equal(venv.action_masks()[v], mask)
+        duties = np.array([0] + [1] * (N - 1))
+        obs, *_ = venv.step(duties)
+        pz_obs, *_ = pz.step({f"vehicle_{v}": int(duties[v]) for v in range(N)})
 
 
 def test_every_vehicle_gets_the_fleets_reward_scaled(atlas) -> None:

@@ -1,0 +1,110 @@
+"""The shared policy through TorchRL (agents.fleet.learning.marl): masks kept in the
+collection and in the policy's actions, a PPO update that moves the parameters with finite
+losses, the clone's agreement with its teacher, determinism for a seed; on a tiny budget."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+pytest.importorskip("torchrl")
+pytest.importorskip("pettingzoo")
+import torch
+
+from agents.fleet.evaluation.costs import run_episodes
+from agents.fleet.learning.marl import MarlTraining, standardise_stats, train_marl
+from agents.fleet.learning.marl_torch import GROUP, make_networks, ppo, record, torchrl_env
+from agents.fleet.policies.rules import opportunistic_rule, with_parts
+from agents.fleet.policies.view import FleetLayout
+from brake_env.env.fleet.config import FleetConfig
+from brake_env.env.fleet.env import BrakeWearFleetEnv
+from brake_env.env.fleet.parallel import BrakeWearFleetParallelEnv
+from brake_env.env.fleet.wrappers import ExpectedRULObservation
+from tests.brake_env.env.fleet.small import SMALL
+
+pytestmark = pytest.mark.filterwarnings("ignore:PettingZoo in TorchRL is tested using version")
+CFG = FleetConfig(**SMALL)
+S_S = (1, 3)
+TINY = MarlTraining(frames=120, frames_per_batch=60, minibatch=30, n_epochs=2, hidden=16,
+                    imitation_episodes=2, imitation_epochs=20, seed=3)  # fmt: skip
+
+
+def _teacher():
+    rule = opportunistic_rule(
+        FleetLayout.of(CFG, routes=("hot",)), n=12.0, N=3.0, s=S_S[0], S=S_S[1]
+    )
+    return with_parts(rule, "(n, N), healthiest on the ramp", duty="rul")
+
+
+@pytest.fixture(scope="module")
+def make_env(atlas):
+    return lambda: BrakeWearFleetParallelEnv(
+        CFG, atlas=atlas, predictor="oracle", spares=S_S, infos="none"
+    )
+
+
+@pytest.fixture(scope="module")
+def trained(make_env):
+    return train_marl(make_env, TINY, teacher=_teacher())
+
+
+def test_the_collected_actions_respect_the_masks(make_env) -> None:
+    par = make_env()
+    st = TINY
+    nets = make_networks(par, st, *standardise_stats(record(par, None, st, 30).views))
+    env = torchrl_env(make_env(), st)
+    with torch.no_grad():
+        td = env.rollout(40, nets.policy)
+    mask, action = td[GROUP, "action_mask"], td[GROUP, "action"]
+    assert (~mask).any()  # some actions were masked on the way...
+    assert mask.gather(-1, action.unsqueeze(-1)).all()  # ...and none of them was taken
+
+
+def test_a_ppo_update_moves_the_parameters_with_finite_losses(make_env) -> None:
+    par = make_env()
+    nets = make_networks(par, TINY, *standardise_stats(record(par, None, TINY, 30).views))
+    before = [p.detach().clone() for p in nets.actor_net.parameters()]
+    history = ppo(nets, make_env, TINY)
+    assert [h["frames"] for h in history] == [60, 120]
+    for h in history:
+        assert all(np.isfinite(v) for v in h.values())
+    after = list(nets.actor_net.parameters())
+    assert any(not torch.equal(a, b) for a, b in zip(before, after, strict=True))
+
+
+def test_the_clone_follows_its_teacher_and_the_policy_keeps_the_masks(trained, atlas) -> None:
+    assert trained.imitation_agreement is not None and trained.imitation_agreement > 0.9
+    assert len(trained.history) == 2 and set(trained.seconds) == {"imitation", "ppo"}
+    env = ExpectedRULObservation(BrakeWearFleetEnv(CFG, atlas=atlas), routes=("hot",))
+    (ep,) = run_episodes(env, trained.policy, [7], check_masks=True)  # raises on a masked duty
+    assert ep.shifts == CFG.episode_shifts and np.isfinite(ep.per_vehicle_shift)
+
+
+def test_same_seed_same_policy(trained, make_env, atlas) -> None:
+    again = train_marl(make_env, TINY, teacher=_teacher())
+    env = ExpectedRULObservation(BrakeWearFleetEnv(CFG, atlas=atlas), routes=("hot",))
+    obs, _ = env.reset(seed=11)
+    for _ in range(5):
+        a, _ = trained.policy.predict(obs)
+        b, _ = again.policy.predict(obs)
+        np.testing.assert_array_equal(trained.policy.logits(obs)[0], again.policy.logits(obs)[0])
+        np.testing.assert_array_equal(a, b)
+        obs, *_ = env.step(a)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "name"),
+    [({"minibatch": 0}, "minibatch"), ({"frames_per_batch": 10, "minibatch": 20}, "minibatch"),
+     ({"gamma": 1.5}, "gamma"), ({"frames": 0}, "nothing to train"), ({"clip": 0.0}, "clip")],
+)  # fmt: skip
+def test_bad_settings_are_named(kwargs, name) -> None:
+    with pytest.raises(ValueError, match=name):
+        MarlTraining(**kwargs)
+
+
+def test_the_env_must_show_the_rul_and_leave_the_spares_to_a_rule(atlas) -> None:
+    with pytest.raises(ValueError, match="predictor="):
+        train_marl(lambda: BrakeWearFleetParallelEnv(CFG, atlas=atlas, spares=S_S),
+                   MarlTraining(frames=60, frames_per_batch=60, minibatch=30))  # fmt: skip
+    with pytest.raises(ValueError, match="teacher"):
+        train_marl(lambda: BrakeWearFleetParallelEnv(CFG, atlas=atlas), TINY)
