@@ -26,14 +26,15 @@ from brake_env.prognostics.registry import ORACLE
 
 
 def rul_env(
-    config: FleetStudyConfig, atlas: Atlas, predictor: str, fitted: Predictor | None
-) -> Any:
-    """The fleet env with ``predictor``'s RUL appended (``rul_mean`` per vehicle)."""
+    config: FleetStudyConfig, atlas: Atlas, predictor: str, fitted: Predictor | None,
+    fields: tuple[str, ...] = ("rul_mean",),
+) -> Any:  # fmt: skip
+    """The fleet env with ``predictor``'s RUL appended (``fields`` per vehicle)."""
     env = BrakeWearFleetEnv(config.fleet, atlas=atlas)
     if predictor == ORACLE:
-        return ExpectedRULObservation(env)
+        return ExpectedRULObservation(env, fields)
     assert fitted is not None, f"predictor {predictor!r} needs a fitted predictor"
-    return FleetRULObservation(env, fitted, fields=("rul_mean",))
+    return FleetRULObservation(env, fitted, fields=fields)
 
 
 def layout(config: FleetStudyConfig) -> FleetLayout:

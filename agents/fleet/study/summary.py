@@ -26,6 +26,7 @@ from agents.fleet.evaluation.costs import (
 )
 from agents.fleet.settings import FleetStudyConfig
 from agents.fleet.study.build import episodes_of
+from agents.fleet.study.planners import BOUND, PRICED
 from agents.fleet.study.units import best_heuristic
 from brake_env.prognostics.registry import ORACLE
 
@@ -57,6 +58,7 @@ def summarise(
         u = units[config.heuristic_key(p, h)]
         rows.append(_row(p, h, e, ref, u["tuning_cost"], params=u["params"]))
     best = {p: best_heuristic(config, units, p) for p in config.predictors}
+    planners = _planners(config, units, eps, best, ref, rows)
     ranking = _ranking(config, eps, best)
     agents = {}
     for kind, n in (("central", config.agent_seeds), ("shared", config.shared_seeds)):
@@ -72,9 +74,46 @@ def summarise(
         "ranking": ranking,
         "agents": agents,
         "terms": {f"{p} / {best[p]}": term_means(eps[(p, best[p])]) for p in config.predictors},
+        **planners,
     }
     if ref is not None:
         out["terms"][REFERENCE] = term_means(ref)
+    return out
+
+
+def _planners(
+    config: FleetStudyConfig, units: dict[str, Any], eps: dict[tuple[str, str], list[EpisodeCost]],
+    best: dict[str, str], ref: list[EpisodeCost] | None, rows: list[dict[str, Any]],
+) -> dict[str, Any]:  # fmt: skip
+    """The price-directed policy's and the rollout planners' rows (appended to ``rows``);
+    every row's paired gap to the Lagrangian bound; ``bound`` and ``rollout`` summaries."""
+    out: dict[str, Any] = {"rollout": {}}
+    for p in config.rollout_predictors:
+        chunks = [units[config.rollout_key(p, i)] for i in range(len(config.rollout_chunks()))]
+        got = [e for c in chunks for e in episodes_of(c["episodes"])]
+        rows.append(_row(p, chunks[0]["policy"], got, ref, None))
+        x, base = costs(got), costs(eps[(p, best[p])])
+        seconds = sum(float(c["seconds"]) for c in chunks)
+        out["rollout"][p] = {
+            "base": best[p], "cost": float(x.mean()), "base_cost": float(base.mean()),
+            "minus_base": _iv(paired_interval(x, base, "difference")),
+            "ratio_to_base": _iv(paired_interval(x, base, "ratio")),
+            "seconds": seconds, "seconds_per_shift": seconds / sum(e.shifts for e in got),
+        }  # fmt: skip
+    if not config.bound_iterations:
+        return out
+    b = units[config.bound_key()]
+    rows.append(_row(ORACLE, PRICED, episodes_of(b["priced"]), ref, None))
+    bound = np.asarray(b["bound"], dtype=float)
+    for r in rows:
+        x = np.asarray(r["episodes"]["cost"])
+        r["gap_to_bound"] = _iv(paired_interval(x, bound, "difference"))
+        r["ratio_to_bound"] = _iv(paired_interval(x, bound, "ratio"))
+    out["bound"] = {
+        "policy": BOUND, "cost": float(bound.mean()), "episodes": bound.tolist(),
+        "zero_prices": float(b["zero_prices_bound"]), "iterations": int(b["iterations"]),
+        "seconds": dict(b["seconds"]),
+    }  # fmt: skip
     return out
 
 
