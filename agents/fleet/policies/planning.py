@@ -36,6 +36,7 @@ from dataclasses import dataclass, fields
 import numpy as np
 from numpy.typing import NDArray
 
+from agents.fleet.policies.lagrangian import BoundModel, Program
 from brake_env.env.fleet.config import FleetConfig
 from brake_env.env.fleet.routes import HOT as HOT_ROUTE
 from brake_env.env.fleet.routes import MILD as MILD_ROUTE
@@ -228,6 +229,34 @@ class PlanningModel:
         s.waiting &= ~fit
         self._install(s, fit, futures, rows)
         return fit.sum(1)
+
+
+@dataclass(frozen=True)
+class ProgramValue:
+    """A terminal value for look-ahead from the relaxed per-vehicle program of the
+    Lagrangian bound (:mod:`.lagrangian`): each vehicle's optimal cost-to-go ``V[t, h, d]``
+    at the searched prices, summed over the vehicles. ``t`` is the program's first shift
+    at the same place in the window cycle as the horizon's end (far from the program's
+    own end, so that the values do not plan for an episode that stops).
+
+    Attributes:
+        values: ``V[t, h, d]`` for t = 0 .. window_period - 1.
+        units: Clock units per hot shift of the program's ``h``.
+    """
+
+    values: F64
+    units: int
+
+    @classmethod
+    def of(cls, model: BoundModel, program: Program) -> ProgramValue:
+        w = model.config.window_period
+        return cls(np.array(program.values[:w]), model.units)
+
+    def __call__(self, h: F64, down: I64, shift: int) -> F64:
+        """The value of every future's fleet (rows) at ``shift``."""
+        v = self.values[shift % len(self.values)]
+        hu = np.clip(np.ceil(h * self.units - 1e-9), 0, v.shape[0] - 1).astype(np.int64)
+        return v[hu, np.clip(down, 0, v.shape[1] - 1)].sum(axis=1)
 
 
 def _shortfall(c: FleetConfig, on_hot: I64, on_mild: I64, window: bool) -> F64:

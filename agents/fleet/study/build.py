@@ -49,6 +49,7 @@ def episodes_dict(eps: list[EpisodeCost]) -> dict[str, Any]:
         "vehicles": eps[0].vehicles,
         "shifts": np.array([e.shifts for e in eps]),
         "pad_price": eps[0].pad_price,
+        "life_value": np.array([e.life_value for e in eps]),
         "terms": {t: np.array([e.terms[t] for e in eps]) for t in terms},
         "counts": {c: np.array([e.counts.get(c, 0.0) for e in eps], dtype=float) for c in counts},
     }
@@ -57,10 +58,12 @@ def episodes_dict(eps: list[EpisodeCost]) -> dict[str, Any]:
 def episodes_of(d: dict[str, Any]) -> list[EpisodeCost]:
     """:func:`episodes_dict` read back."""
     n = len(d["seed"])
+    left = d.get("life_value", np.zeros(n))
     return [
         EpisodeCost(int(d["seed"][i]), int(d["vehicles"]), int(d["shifts"][i]),
                     {t: float(v[i]) for t, v in d["terms"].items()},
-                    {c: float(v[i]) for c, v in d["counts"].items()}, float(d["pad_price"]))
+                    {c: float(v[i]) for c, v in d["counts"].items()}, float(d["pad_price"]),
+                    float(left[i]))
         for i in range(n)
     ]  # fmt: skip
 

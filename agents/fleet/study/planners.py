@@ -3,7 +3,11 @@ policy (:func:`bound_unit`), and the rollout planner on a predictor's best tuned
 (:func:`rollout_unit`, ``rollout_chunk`` evaluation episodes a unit so that Ray spreads
 them), each a unit of :func:`agents.fleet.study.units.study_graph`.
 
-The bound's prices are searched once for the mean of the evaluation episodes' starting
+The bound is on the cost net of the pad life left at the episode's end
+(:attr:`~agents.fleet.evaluation.costs.EpisodeCost.net`; its program credits that life as
+the policies' figure does): without the credit it would plan to run the pads down for an
+episode that stops, which no policy of a mine that goes on does. The bound's prices are
+searched once for the mean of the evaluation episodes' starting
 states (a bound at any prices is valid), then each episode's bound is evaluated at its own
 start: a lower bound on the expected cost of every policy on that episode, whatever its
 information (the bound knows each pad's K). The price-directed policy reads the env's
@@ -43,7 +47,7 @@ def bound_unit(config: FleetStudyConfig, atlas: Atlas) -> dict[str, Any]:
     t0 = time.perf_counter()
     cfg = config.fleet
     env = BrakeWearFleetEnv(cfg, atlas=atlas)
-    model = BoundModel.build(cfg, atlas)
+    model = BoundModel.build(cfg, atlas, credit=True)
     states = []
     for seed in config.eval_seeds():
         env.reset(seed=seed)

@@ -79,7 +79,7 @@ def report(summary: dict[str, Any], markdown: bool = False) -> str:
         " pads priced when fitted; intervals 95%, paired over episodes."
     ]
     bound = summary.get("bound")
-    gap = ["gap to bound"] if bound else []
+    gap = ["net cost", "gap to bound (net)"] if bound else []
     head = ["predictor", "policy", "cost", "tuning cost", "ratio to reference", *gap, "fits",
             "failures"]  # fmt: skip
     rows = [head]
@@ -89,7 +89,7 @@ def report(summary: dict[str, Any], markdown: bool = False) -> str:
         fits = r["window_fits"] + r["shop_fits"] + r["visits"] + r["corrective_fits"]
         tuning = "" if r["tuning_cost"] is None else f"{r['tuning_cost']:.2f}"
         ratio = _ivs(r.get("ratio_to_reference"))
-        to_bound = [_ivs(r.get("gap_to_bound"))] if bound else []
+        to_bound = [f"{r['net_cost']:.2f}", _ivs(r.get("gap_to_bound"))] if bound else []
         rows.append([r["predictor"], r["policy"] + mark, f"{r['cost']:.2f}", tuning, ratio,
                      *to_bound, f"{fits:.1f}", f"{r['failures']:.2f}"])  # fmt: skip
     for a in summary["agents"].values():
@@ -123,8 +123,8 @@ def _planner_lines(summary: dict[str, Any]) -> list[str]:
     b = summary.get("bound")
     if b:
         lines.append(
-            f"\nLagrangian lower bound (any policy, any information): {b['cost']:.3f} per"
-            f" vehicle-shift on these episodes ({min(b['episodes']):.3f}-{max(b['episodes']):.3f};"
+            f"\nLagrangian lower bound (any policy, any information) on the cost net of the pad"
+            f" life left at the end: {b['cost']:.3f} per vehicle-shift on these episodes ({min(b['episodes']):.3f}-{max(b['episodes']):.3f};"
             f" {b['iterations']} price vectors, {b['seconds']['bound']:.0f} s; at zero prices"
             f" {b['zero_prices']:.3f}). Gaps to it are paired over episodes."
         )
