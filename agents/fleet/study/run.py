@@ -124,7 +124,8 @@ def _planner_lines(summary: dict[str, Any]) -> list[str]:
     if b:
         lines.append(
             f"\nLagrangian lower bound (any policy, any information) on the cost net of the pad"
-            f" life left at the end: {b['cost']:.3f} per vehicle-shift on these episodes ({min(b['episodes']):.3f}-{max(b['episodes']):.3f};"
+            f" life left at the end: {b['cost']:.3f} per vehicle-shift on these episodes"
+            f" ({min(b['episodes']):.3f}-{max(b['episodes']):.3f};"
             f" {b['iterations']} price vectors, {b['seconds']['bound']:.0f} s; at zero prices"
             f" {b['zero_prices']:.3f}). Gaps to it are paired over episodes."
         )
