@@ -68,12 +68,14 @@ from brake_env.env.brake_wear import BrakeWearEnv
 from brake_env.env.fleet.config import SMALL_FLEET
 from brake_env.env.fleet.env import BrakeWearFleetEnv
 from brake_env.env.fleet.parallel import STORE, BrakeWearFleetParallelEnv
-from brake_env.env.fleet.routes import UNIFORM, route_wear_model
-from brake_env.env.fleet.wrappers import ExpectedRULObservation, FleetRULObservation, shift_batch
+from brake_env.env.fleet.route_rul import duty_clocks, equivalent_batch
+from brake_env.env.fleet.wrappers import ExpectedRULObservation, FleetRULObservation
 from brake_env.env.wrappers import RULObservation
 from brake_env.model.atlas import Atlas, AtlasSpec
 from brake_env.model.regime import WearRegime
 from brake_env.output import table, write_arrays
+from brake_env.prognostics.duty import route_rul
+from brake_env.prognostics.fleet import select
 from brake_env.prognostics.persist import ARRAYS, HEADER, load_predictor, save_predictor
 from brake_env.prognostics.protocol import NoPrognostics, Predictor, iter_runs, predict_log
 from brake_env.prognostics.registry import make_predictor
@@ -860,38 +862,60 @@ def fleet_wrapper_cases(w: World) -> list[Case]:
         return run
 
     def known(p: str) -> Check:
+        """The wrapper's observation rebuilt by hand: a copy of the predictor per vehicle
+        fed that vehicle's shift in uniform-mix events (``equivalent_batch``), carried onto
+        the routes by ``route_rul``."""
         env = BrakeWearFleetEnv(atlas=w.atlas, **FLEET)
         preds = [copy.deepcopy(w.fitted[p]) for _ in range(n)]
         obs, _ = env.reset(seed=0)
-        fresh = float(route_wear_model(w.atlas, UNIFORM).life(
-            env.config.wear.k_mean))  # fmt: skip
-        est = np.full(n, fresh)
+        clocks, driven = duty_clocks(w.atlas), duty_clocks(w.atlas, ("hot", "mild", "uniform"))
+        fresh = np.array([c.life(env.config.wear.k_mean) for c in clocks.routes])
+        age, last = env.pads.pos.astype(float), np.full(n, -1)  # type: ignore[union-attr]
+        est: list[Any] = [None] * n
         for pr in preds:
             pr.reset()
-        want = [np.concatenate([obs, est]).astype(np.float32)]
+
+        def rows() -> Any:
+            r = [fresh if e is None else route_rul(e, age[v : v + 1], clocks).mean[0]
+                 for v, e in enumerate(est)]  # fmt: skip
+            return np.clip(np.ravel(r) / env.config.events_per_shift, 0, 1e5)
+
+        want = [np.concatenate([obs, rows()]).astype(np.float32)]
         for a in FLEET_ACTIONS:
-            obs, *_ = env.step(a)
+            obs, _, _, _, info = env.step(a)
             ev = env.shift_events()
             assert ev is not None
-            batch, vehicles = shift_batch(ev)
-            start = 0
+            for v in np.flatnonzero((ev.n_done > 0) & (ev.first_event == 0)):
+                preds[v].reset()
+                age[v], last[v], est[v] = 0.0, -1, None
+            vol = np.array([1.0 if e is None else route_rul(e, age[v : v + 1], clocks).volume[0]
+                            for v, e in enumerate(est)])  # fmt: skip
+            rate = driven.rate_ratio(vol)[np.arange(n), np.maximum(info["vehicles"]["route"], 0)]
+            batch, at, vehicles, after = equivalent_batch(ev, age, rate, last)
+            age = np.where(ev.n_done > 0, after, age)
             for v in vehicles:
-                k = int(ev.n_done[v])
-                if ev.first_event[v] == 0:
-                    preds[v].reset()
-                est[v] = preds[v].update(batch[start : start + k]).rul_mean[-1]
-                start += k
-            est[env.pads.pos == 0] = fresh  # type: ignore[union-attr]
-            want.append(np.concatenate([obs, np.clip(est, 0, 1e7)]).astype(np.float32))
+                i = np.flatnonzero(at == v)
+                got = preds[v].update(batch[int(i[0]) : int(i[-1]) + 1])
+                est[v] = select(got, np.array([len(got) - 1]))
+                last[v] = batch.event[i[-1]]
+            for v in np.flatnonzero(env.pads.pos == 0):  # type: ignore[union-attr]
+                preds[v].reset()
+                age[v], last[v], est[v] = 0.0, -1, None
+            want.append(np.concatenate([obs, rows()]).astype(np.float32))
         return equals(want, "= the env's observation and a predictor per vehicle", 1e-6)
 
     def expected() -> Any:
         env = ExpectedRULObservation(gym.make("BrakeWearFleet-v0", atlas=w.atlas, **FLEET))
         obs, _ = env.reset(seed=0)
-        rows = [(obs[-n:], env.unwrapped.true_rul("hot"))]  # type: ignore[attr-defined]
+        per_shift = env.unwrapped.config.events_per_shift  # type: ignore[attr-defined]
+
+        def hot(o: Any) -> Any:  # the hot-route RUL in events, out of (hot, mild) per vehicle
+            return o[-2 * n :].reshape(n, 2)[:, 0] * per_shift
+
+        rows = [(hot(obs), env.unwrapped.true_rul("hot"))]  # type: ignore[attr-defined]
         for a in FLEET_ACTIONS:
             obs, *_ = env.step(a)
-            rows.append((obs[-n:], env.unwrapped.true_rul("hot")))  # type: ignore[attr-defined]
+            rows.append((hot(obs), env.unwrapped.true_rul("hot")))  # type: ignore[attr-defined]
         return np.array([r[0] for r in rows], np.float64), np.array([r[1] for r in rows], float)
 
     near_truth = Check(

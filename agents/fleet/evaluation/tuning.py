@@ -2,8 +2,15 @@
 with Optuna's TPE sampler, seeded, so that a tuning run is repeatable.
 
 Each heuristic of :mod:`agents.fleet.policies.rules` has a search space here (limits in shifts of
-hot duty). The objective is the mean cost per vehicle-shift over the tuning seeds, every
-trial on the same seeds (common random numbers). Heuristics other than the (s, S) rule and
+hot duty). Every predictor's RUL reaches the rules in hot shifts (the fleet wrapper carries it
+onto the route, issue 31), so one range serves all: a pad lasts ~158 hot shifts at the mean K,
+a window comes every 14, and the ranges (limits up to 20-40 shifts, window margins -10 to 30
+around the 13 working shifts to the next window) hold every limit a rule could want, with
+room for a forecast's error late in life (the twin's hot-route RMSE: under 1% of the hot life
+past 20% of it, docs/results/prognostics.md).
+
+The objective is the mean cost per vehicle-shift over the tuning seeds, every trial on the
+same seeds (common random numbers). Heuristics other than the (s, S) rule and
 the combination keep the default reorder rule (s, S) = (2, 4); the (s, S) heuristic is the
 threshold with its reorder point and level tuned as well.
 

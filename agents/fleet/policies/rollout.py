@@ -181,11 +181,10 @@ class RolloutPolicy:
     ) -> FleetState:
         """The futures' common start: the belief over each pad's hot life, sampled."""
         lay = self.layout
-        o = read_observation(observation, lay.n_vehicles, len(lay.fields))
+        o = read_observation(observation, lay.n_vehicles, lay.per_vehicle)
         h = np.repeat(view.rul[None], self.samples, axis=0)
-        if "rul_lower" in lay.fields and "rul_upper" in lay.fields:
-            lo, hi = (o.appended[:, lay.fields.index(f)] for f in ("rul_lower", "rul_upper"))
-            sd = (hi - lo) / (2 * Z90) / lay.events_per_hot_shift
+        if view.rul_lower is not None and view.rul_upper is not None:
+            sd = (view.rul_upper - view.rul_lower) / (2 * Z90)
             h = h + sd[None] * rng.standard_normal(h.shape)
         down = np.rint(o.vehicle("down_shifts")).astype(np.int64)
         return self.model.start(

@@ -1,12 +1,11 @@
-"""What a fleet rule reads from BrakeWearFleet-v0's observation: each vehicle's RUL (in
-shifts of hot duty), pad age and shop state; the fleet's shift, window, stock and bays; and
-the mask of allowed actions, rebuilt from the observation alone.
+"""What a fleet rule reads from BrakeWearFleet-v0's observation: each vehicle's RUL on the
+hot and the mild route (in shifts of that route), pad age and shop state; the fleet's shift,
+window, stock and bays; and the mask of allowed actions, rebuilt from the observation alone.
 
-The RUL is the one a :class:`~brake_env.env.fleet.wrappers.FleetRULObservation` appends
-(any predictor; the oracle's when the env has ``truth=True``). A predictor gives it in
-events under its own assumption of the operating mix: the oracle's is events on the hot
-route, the paper's predictors' events on the envelope's uniform mix. ``rul_per_shift``
-converts it into shifts of hot duty, the unit every rule's limits are in.
+The RUL is the one a :class:`~brake_env.env.fleet.wrappers.FleetRULObservation` (any
+predictor, the oracle included) or an
+:class:`~brake_env.env.fleet.wrappers.ExpectedRULObservation` (the oracle's, closed form)
+appends: already in shifts of each route, whatever the predictor, so no rule converts.
 """
 
 from __future__ import annotations
@@ -17,27 +16,14 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from brake_env.env.fleet import routes, rules
+from brake_env.env.fleet import rules
 from brake_env.env.fleet.config import FleetConfig
+from brake_env.env.fleet.route_rul import ROUTE_NAMES
+from brake_env.env.fleet.routes import ROUTE_INDEX
 from brake_env.env.fleet.spaces import FLEET_FEATURES, N_VF, read_observation
 from brake_env.env.fleet.wrappers import ESTIMATE_FIELDS
-from brake_env.model.atlas import Atlas
 
 F64 = NDArray[np.float64]
-
-
-def rul_per_hot_shift(config: FleetConfig, atlas: Atlas, predictor_route: str = "hot") -> float:
-    """Events of a predictor's RUL that one shift of hot duty uses: ``events_per_shift`` for
-    a RUL on the hot route (the oracle's); for a RUL on the envelope's uniform mix (the
-    paper's predictors) scaled by the hot route's wear per event over the uniform mix's
-    (fresh-pad layer; the ratio grows ~15% towards the last layer, DESIGN.md 10)."""
-    if predictor_route == "hot":
-        return float(config.events_per_shift)
-    if predictor_route != "uniform":
-        raise ValueError(f"predictor_route must be 'hot' or 'uniform', got {predictor_route!r}")
-    hot, uniform = (routes.route_mean(atlas, r)[0] for r in (routes.HOT, routes.UNIFORM))
-    ratio = float(hot / uniform)
-    return float(config.events_per_shift) * ratio
 
 
 @dataclass(frozen=True)
@@ -47,16 +33,16 @@ class FleetLayout:
 
     Attributes:
         config: The env's config.
-        fields: RUL fields appended per vehicle (FleetRULObservation's ``fields``).
+        fields: RUL fields appended per vehicle and route (the wrapper's ``fields``).
         rul_field: Which of them the rules read (e.g. ``rul_lower`` for a cautious rule).
-        rul_per_shift: Events of RUL one hot shift uses (:func:`rul_per_hot_shift`); None:
-            the config's ``events_per_shift`` (a RUL on the hot route).
+        routes: Routes whose RUL is appended, in order (the wrapper's ``routes``); must
+            hold ``hot``.
     """
 
     config: FleetConfig
     fields: tuple[str, ...] = ("rul_mean",)
     rul_field: str = "rul_mean"
-    rul_per_shift: float | None = None
+    routes: tuple[str, ...] = ROUTE_NAMES
 
     def __post_init__(self) -> None:
         if not isinstance(self.config, FleetConfig):
@@ -65,8 +51,10 @@ class FleetLayout:
             raise ValueError(f"FleetLayout: fields must be among {ESTIMATE_FIELDS}")
         if self.rul_field not in self.fields:
             raise ValueError(f"FleetLayout: rul_field {self.rul_field!r} not in {self.fields}")
-        if self.rul_per_shift is not None and not self.rul_per_shift > 0:
-            raise ValueError(f"FleetLayout: rul_per_shift must be > 0, got {self.rul_per_shift}")
+        if "hot" not in self.routes or any(r not in ROUTE_INDEX for r in self.routes):
+            raise ValueError(
+                f"FleetLayout: routes must be route names holding 'hot', got {self.routes!r}"
+            )
 
     @classmethod
     def of(cls, config: FleetConfig, **kwargs: Any) -> FleetLayout:
@@ -82,14 +70,19 @@ class FleetLayout:
         return self.config.max_order
 
     @property
-    def events_per_hot_shift(self) -> float:
-        """Events of the appended RUL that one shift of hot duty uses."""
-        r = self.rul_per_shift
-        return float(self.config.events_per_shift) if r is None else r
+    def per_vehicle(self) -> int:
+        """Values appended per vehicle: every field on every route."""
+        return len(self.fields) * len(self.routes)
 
     @property
     def size(self) -> int:
-        return self.n_vehicles * (N_VF + len(self.fields)) + len(FLEET_FEATURES)
+        return self.n_vehicles * (N_VF + self.per_vehicle) + len(FLEET_FEATURES)
+
+    def column(self, route: str, field: str) -> int | None:
+        """Where ``field`` of ``route`` is among a vehicle's appended values (None: absent)."""
+        if route not in self.routes or field not in self.fields:
+            return None
+        return self.routes.index(route) * len(self.fields) + self.fields.index(field)
 
 
 @dataclass(frozen=True)
@@ -97,7 +90,10 @@ class FleetView:
     """One observation, read. Per vehicle arrays have shape (n_vehicles,).
 
     Attributes:
-        rul: RUL in shifts of hot duty.
+        rul: RUL on the hot route (the layout's ``rul_field``) [hot shifts].
+        rul_mild: RUL on the mild route (``rul_field``; NaN if not appended) [mild shifts].
+        rul_lower, rul_upper: Interval of the hot-route RUL (``rul`` where not appended)
+            [hot shifts].
         age: Pad age [events].
         down: Whether the vehicle is in the shop (down) this shift.
         shift, to_window, stock, transit, free_bays: The fleet's features.
@@ -111,6 +107,9 @@ class FleetView:
     stock: int
     transit: int
     free_bays: int
+    rul_mild: F64 | None = None
+    rul_lower: F64 | None = None
+    rul_upper: F64 | None = None
 
     @property
     def window(self) -> bool:
@@ -120,13 +119,23 @@ class FleetView:
     @classmethod
     def read(cls, obs: NDArray[Any], layout: FleetLayout) -> FleetView:
         try:
-            o = read_observation(obs, layout.n_vehicles, len(layout.fields))
+            o = read_observation(obs, layout.n_vehicles, layout.per_vehicle)
         except ValueError as e:
-            raise ValueError(f"fleet rule: {e} (RUL fields {layout.fields})") from None
-        est = o.appended[:, layout.fields.index(layout.rul_field)]
+            raise ValueError(
+                f"fleet rule: {e} (RUL fields {layout.fields} on routes {layout.routes})"
+            ) from None
+
+        def col(route: str, field: str, default: F64 | None) -> F64 | None:
+            i = layout.column(route, field)
+            return default if i is None else o.appended[:, i]
+
+        rul = o.appended[:, layout.column("hot", layout.rul_field)]
         f = o.fleet
         return cls(
-            rul=est / layout.events_per_hot_shift,
+            rul=rul,
+            rul_mild=col("mild", layout.rul_field, np.full(len(rul), np.nan)),
+            rul_lower=col("hot", "rul_lower", rul),
+            rul_upper=col("hot", "rul_upper", rul),
             age=o.vehicle("pad_age"),
             down=o.down,
             shift=f["shift"],

@@ -29,7 +29,8 @@ def rul_env(
     config: FleetStudyConfig, atlas: Atlas, predictor: str, fitted: Predictor | None,
     fields: tuple[str, ...] = ("rul_mean",),
 ) -> Any:  # fmt: skip
-    """The fleet env with ``predictor``'s RUL appended (``fields`` per vehicle)."""
+    """The fleet env with ``predictor``'s RUL appended (``fields`` on the hot and the mild
+    route per vehicle, in shifts)."""
     env = BrakeWearFleetEnv(config.fleet, atlas=atlas)
     if predictor == ORACLE:
         return ExpectedRULObservation(env, fields)

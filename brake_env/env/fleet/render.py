@@ -2,9 +2,9 @@
 
 One row per vehicle: its pad's true volume as a bar down to end of life (green, amber
 under 40% of its usable life, red under 15%), its duty this shift (H hot, M mild, P park,
-S in the shop), and the RUL: a fleet wrapper's estimate in events when there is one
-(``info["rul_estimate"]``), else the expected shifts left on the hot route from the true
-volume and K (the closed-form wear clock of the route). A header gives the shift, the
+S in the shop), and the hot-route RUL in shifts: a fleet wrapper's estimate when there is one
+(``info["rul_estimate"]["hot_rul_mean"]``), else the expected shifts left on the hot route
+from the true volume and K (the closed-form wear clock of the route). A header gives the shift, the
 shifts to the next window, the free bays, the stock and the pads on order. The bitmap font
 and drawing helpers are BrakeWear-v0's (:mod:`brake_env.env.render`).
 """
@@ -76,11 +76,11 @@ class FleetFrame:
         t = env.truth()
         end = env.atlas.failure_volume
         letters = duty_letters(self.info, shop.down) if self.info else ["P"] * c.n_vehicles
-        est = self.info.get("rul_estimate", {}).get("rul_mean")
+        est = self.info.get("rul_estimate", {}).get("hot_rul_mean")
         if est is None:  # expected hot-route shifts left, from the truth
             vol = np.maximum(t["volume_frac"], end)
             est = self._hot.rul(vol, t["wear_coeff"]) / c.events_per_shift
-        unit = "" if "rul_estimate" in self.info else " SH"
+        unit = " SH"
         for v in range(c.n_vehicles):
             self._row(img, v, float(t["volume_frac"][v]), end, letters[v], est=est, unit=unit)
         return img

@@ -38,6 +38,9 @@ def agent(atlas):
                               s=S_S[0], S=S_S[1])  # fmt: skip
 
 
+R = 2  # RUL values per vehicle: the hot and the mild route's
+
+
 def _duties(rng: np.random.Generator, masks: np.ndarray) -> np.ndarray:
     return np.array([rng.choice(np.flatnonzero(m)) for m in masks])
 
@@ -48,12 +51,13 @@ def test_vehicle_view_is_the_slices_of_the_fleet_observation(atlas) -> None:
     venv.seed(7)
     obs = venv.reset()
     full, _ = ref.reset(seed=8)
-    assert venv.num_envs == 2 * N and obs.shape == (2 * N, N_VF + 1 + len(FLEET_FEATURES))
+    assert venv.num_envs == 2 * N and obs.shape == (2 * N, N_VF + R + len(FLEET_FEATURES))
     rng = np.random.default_rng(0)
     for _ in range(CFG.episode_shifts + 3):  # across an episode end
-        veh, fleet, rul = full[: N * N_VF].reshape(N, N_VF), full[N * N_VF : -N], full[-N:]
+        veh, fleet = full[: N * N_VF].reshape(N, N_VF), full[N * N_VF : -R * N]
+        rul = full[-R * N :].reshape(N, R)
         for v in range(N):
-            np.testing.assert_array_equal(obs[N + v], np.concatenate([veh[v], [rul[v]], fleet]))
+            np.testing.assert_array_equal(obs[N + v], np.concatenate([veh[v], rul[v], fleet]))
             assert venv.observation_space.contains(obs[N + v])
         masks = venv.action_masks()
         np.testing.assert_array_equal(masks[N:].ravel(), ref.unwrapped.action_masks()[: 4 * N])
@@ -85,7 +89,7 @@ def test_the_pettingzoo_view_plus_the_rul(atlas) -> None:
     pz_obs, _ = pz.reset(seed=4)
     for v in range(N):
         own = pz_obs[f"vehicle_{v}"]["observation"]
-        np.testing.assert_array_equal(np.delete(obs[v], N_VF), own)
+        np.testing.assert_array_equal(np.delete(obs[v], np.arange(N_VF, N_VF + R)), own)
         np.testing.assert_array_equal(venv.action_masks()[v], pz_obs[f"vehicle_{v}"]["action_mask"])
 
 
@@ -111,7 +115,7 @@ def test_agent_respects_the_mask_along_an_episode(agent, atlas) -> None:
     env = oracle_fleet_env(CFG, atlas)
     (ep,) = run_episodes(env, agent, [5], check_masks=True)  # raises on a masked action
     assert ep.shifts == CFG.episode_shifts and np.isfinite(ep.per_vehicle_shift)
-    assert agent.mean.shape == (N_VF + 1 + len(FLEET_FEATURES),)
+    assert agent.mean.shape == (N_VF + R + len(FLEET_FEATURES),)
 
 
 def test_same_seed_same_actions(agent, atlas) -> None:

@@ -166,7 +166,9 @@ def test_rollout_keeps_a_pad_off_the_ramp_that_the_base_would_fail(small_rollout
         obs, *_ = env.step(env.action_space.sample() * 0 + PARK)
     obs = obs.copy()
     n = cfg.n_vehicles
-    obs[-n:] = [0.5 * cfg.events_per_shift, 80e3, 90e3, 100e3]  # vehicle 0 nearly worn
+    hot = base.layout.column("hot", "rul_mean")
+    appended = obs[-n * base.layout.per_vehicle :].reshape(n, -1)  # (a view into obs)
+    appended[:, hot] = [0.5, 200.0, 225.0, 250.0]  # hot shifts: vehicle 0 nearly worn
     assert base.act(FleetView.read(obs, base.layout))[0] == HOT
     a = RolloutPolicy(base, model, horizon=10, samples=8).act(obs)
     assert a[0] in (PARK, SERVICE, MILD) and a[0] != HOT

@@ -18,7 +18,7 @@ from agents.fleet.policies.rules import (
     window_rule,
     with_parts,
 )
-from agents.fleet.policies.view import FleetLayout, FleetView, respects, rul_per_hot_shift
+from agents.fleet.policies.view import FleetLayout, FleetView, respects
 from brake_env.env.fleet.config import FleetConfig
 from brake_env.env.fleet.env import BrakeWearFleetEnv
 from brake_env.env.fleet.shop import HOT, MILD, PARK, SERVICE
@@ -27,22 +27,21 @@ from brake_env.env.fleet.wrappers import ExpectedRULObservation
 
 N = 4
 # 4 vehicles, 2 needed hot and none mild, a window crew that fits every vehicle.
-LAYOUT = FleetLayout(
-    FleetConfig(n_vehicles=N, hot_need=2, mild_need=0, window_slots=N), rul_per_shift=400.0
-)
+LAYOUT = FleetLayout(FleetConfig(n_vehicles=N, hot_need=2, mild_need=0, window_slots=N))
 
 
 def observation(
     rul_shifts: list[float], down: list[int] | None = None, to_window: int = 5,
     stock: int = 4, transit: int = 0, free_bays: int = 2,
 ) -> np.ndarray:  # fmt: skip
-    """A fleet observation with the given RUL (in hot shifts) and fleet state."""
+    """A fleet observation with the given hot-route RUL (in hot shifts; the mild route's five
+    times it) and fleet state."""
     n = len(rul_shifts)
     veh = np.zeros((n, N_VF))
     veh[:, VEHICLE_FEATURES.index("down_shifts")] = down or [0] * n
     fleet = dict.fromkeys(FLEET_FEATURES, 0.0)
     fleet.update(shifts_to_window=to_window, stock=stock, in_transit=transit, free_bays=free_bays)
-    rul = np.asarray(rul_shifts) * 400.0
+    rul = np.stack([rul_shifts, 5.0 * np.asarray(rul_shifts)], axis=1).ravel()
     return np.concatenate([veh.ravel(), list(fleet.values()), rul]).astype(np.float32)
 
 
@@ -210,9 +209,12 @@ def test_closed_form_oracle_rul_is_the_simulated_ahead_one_within_a_few_percent(
     obs, _ = env.reset(seed=2)
     for _ in range(3):
         obs, *_ = env.step(np.array([HOT, HOT, 0]))
-    expected = obs[-2:].astype(float)
-    simulated = env.unwrapped.true_rul("hot").astype(float)
-    np.testing.assert_allclose(expected, simulated, rtol=0.03)
-    cfg = env.unwrapped.config
-    assert rul_per_hot_shift(cfg, env.unwrapped.atlas) == cfg.events_per_shift
-    assert rul_per_hot_shift(cfg, env.unwrapped.atlas, "uniform") > cfg.events_per_shift
+    expected = obs[-4:].astype(float).reshape(2, 2) * env.unwrapped.config.events_per_shift
+    for j, route in enumerate(("hot", "mild")):
+        simulated = env.unwrapped.true_rul(route).astype(float)
+        np.testing.assert_allclose(expected[:, j], simulated, rtol=0.03)
+    # the rules read both routes, in shifts, without converting
+    view = FleetView.read(obs, FleetLayout.of(env.unwrapped.config))
+    np.testing.assert_allclose(view.rul * 400, expected[:, 0], rtol=1e-6)
+    np.testing.assert_allclose(view.rul_mild * 400, expected[:, 1], rtol=1e-6)
+    assert (view.rul_mild > 3 * view.rul).all()  # the drifts wear a pad 4.7-6.6x slower

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from brake_env.env.fleet.env import BrakeWearFleetEnv
+from brake_env.env.fleet.route_rul import duty_clocks
 from brake_env.env.fleet.wrappers import FleetRULObservation
 from brake_env.prognostics.protocol import NoPrognostics, Oracle
 
@@ -70,18 +71,17 @@ def test_parallel_step_is_the_single_env_step(atlas) -> None:
         np.testing.assert_array_equal(obs_p[STORE]["action_mask"], single.action_masks()[12:])
 
 
-def test_oracle_wrapper_gives_the_true_hot_route_rul(atlas) -> None:
-    env = FleetRULObservation(BrakeWearFleetEnv(atlas=atlas, truth=True, **SMALL), Oracle())
+def test_oracle_wrapper_gives_the_true_route_rul(atlas) -> None:
+    env = FleetRULObservation(BrakeWearFleetEnv(atlas=atlas, **SMALL), Oracle())
     obs, info = env.reset(seed=0)
-    assert obs.shape == (35 + 9,)
+    assert obs.shape == (35 + 3 * 2 * 3,)  # 3 vehicles, 2 routes, 3 fields
     for _ in range(6):
         obs, _, _, _, info = env.step(np.array([0, 0, 0, 1]))
-    truth = env.unwrapped.true_rul("hot")
-    np.testing.assert_array_equal(info["rul_estimate"]["rul_mean"], truth)
-    np.testing.assert_array_equal(obs[35:].reshape(3, 3)[:, 0], truth.astype(np.float32))
-    np.testing.assert_array_equal(
-        info["rul_estimate"]["wear_coeff"], env.unwrapped.truth()["wear_coeff"]
-    )
+    per_shift = env.unwrapped.config.events_per_shift
+    for j, route in enumerate(("hot", "mild")):
+        truth = env.unwrapped.true_rul(route) / per_shift
+        np.testing.assert_array_equal(info["rul_estimate"][f"{route}_rul_mean"], truth)
+        np.testing.assert_allclose(obs[35:].reshape(3, 2, 3)[:, j, 0], truth, rtol=1e-6)
 
 
 def test_wrapper_resets_a_vehicle_with_a_new_pad(atlas) -> None:
@@ -90,8 +90,10 @@ def test_wrapper_resets_a_vehicle_with_a_new_pad(atlas) -> None:
     env.reset(seed=0)
     env.step(np.array([0, 1, 0, 0]))
     _, _, _, _, info = env.step(np.array([3, 1, 0, 0]))  # vehicle 0: a shop visit
-    est = info["rul_estimate"]["rul_mean"]
-    assert est[0] == env.fresh_rul  # new pad, nothing braked yet
+    est = info["rul_estimate"]["hot_rul_mean"]
+    cfg = env.unwrapped.config
+    fresh = duty_clocks(atlas).routes[0].life(cfg.k_mean) / cfg.events_per_shift
+    assert est[0] == pytest.approx(fresh)  # new pad, nothing braked yet
     # Its events restart at 0: the slot was reset (else the predictor rejects the batch).
     _, _, _, _, info = env.step(np.array([0, 1, 0, 0]))
     assert info["rul_estimate"]["rul_mean"][0] == 5000.0
