@@ -57,6 +57,8 @@ def summarise(
     for (p, h), e in eps.items():
         u = units[config.heuristic_key(p, h)]
         rows.append(_row(p, h, e, ref, u["tuning_cost"], params=u["params"]))
+        if "best_so_far" in u:  # whether more trials still moved the tuning objective
+            rows[-1]["best_so_far"] = np.asarray(u["best_so_far"]).tolist()
     best = {p: best_heuristic(config, units, p) for p in config.predictors}
     planners = _planners(config, units, eps, best, ref, rows)
     ranking = _ranking(config, eps, best)

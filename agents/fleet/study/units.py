@@ -229,6 +229,7 @@ def heuristic_unit(
     return {
         "predictor": predictor, "policy": heuristic, "params": tuned.params,
         "tuning_cost": tuned.tuning_cost, "trials": tuned.trials,
+        "best_so_far": np.array(tuned.best_so_far),
         "episodes": episodes_dict(eps),
         "seconds": {"tune": t1 - t0, "evaluate": time.perf_counter() - t1},
     }  # fmt: skip
