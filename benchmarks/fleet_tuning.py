@@ -33,8 +33,10 @@ def main() -> None:
     p.add_argument("--eval-episodes", type=int, default=20)
     p.add_argument("--size", default="default", choices=("small", "default"))
     a = p.parse_args()
-    config = FleetStudyConfig(size=a.size, predictors=(a.predictor,),
-                              tune_episodes=a.tune_episodes, eval_episodes=a.eval_episodes)  # fmt: skip
+    config = FleetStudyConfig(
+        size=a.size, predictors=(a.predictor,), tune_episodes=a.tune_episodes,
+        eval_episodes=a.eval_episodes,
+    )  # fmt: skip
     atlas = default_atlas()
     fitted = None if a.predictor == ORACLE else fit_unit(a.predictor, atlas, 0, 10)
     env = rul_env(config, atlas, a.predictor, fitted)
