@@ -137,6 +137,14 @@ class FleetStudyConfig:
             (seeds from 20,000) every ``curve_every`` shifts of training.
         tail: Shifts beyond the episode the reference's program looks ahead.
         seed: Seed of the predictors' fits and of the tuning samplers.
+        rollout_predictors: Predictors given the rollout planner on their best tuned
+            heuristic (:mod:`agents.fleet.policies.rollout`); its evaluation episodes run
+            as units of ``rollout_chunk`` episodes.
+        rollout_horizon, rollout_samples: The planner's shifts simulated per candidate and
+            sampled futures.
+        rollout_chunk: Evaluation episodes per rollout unit.
+        bound_iterations: Price vectors the Lagrangian bound's search tries (0: no bound);
+            with the bound, the price-directed policy runs on the evaluation episodes too.
     """
 
     size: Literal["small", "default"] = "small"
@@ -156,6 +164,11 @@ class FleetStudyConfig:
     curve_every: int = 20_000
     tail: int = 200
     seed: int = 0
+    rollout_predictors: tuple[str, ...] = ()
+    rollout_horizon: int = 28
+    rollout_samples: int = 16
+    rollout_chunk: int = 5
+    bound_iterations: int = 0
 
     def __post_init__(self) -> None:
         if self.size not in SIZES:
@@ -172,21 +185,25 @@ class FleetStudyConfig:
                 f"FleetStudyConfig: predictors must be among {list(known)},"
                 f" got {list(self.predictors)}"
             )
-        missing = [p for p in self.agent_predictors if p not in self.predictors]
+        missing = [p for p in self.agent_predictors + self.rollout_predictors
+                   if p not in self.predictors]  # fmt: skip
         if missing:
             raise ValueError(
-                f"FleetStudyConfig: agent predictor(s) {missing} are not among the predictors"
-                f" {self.predictors} (an agent is compared with its predictor's heuristics)"
+                f"FleetStudyConfig: agent or rollout predictor(s) {missing} are not among the"
+                f" predictors {self.predictors} (each is compared with its predictor's"
+                " heuristics)"
             )
         for name in ("shifts", "trials", "trials_best", "tune_episodes", "n_train_runs",
-                     "curve_episodes", "curve_every"):  # fmt: skip
+                     "curve_episodes", "curve_every", "rollout_horizon", "rollout_samples",
+                     "rollout_chunk"):  # fmt: skip
             if int(getattr(self, name)) < 1:
                 raise ValueError(
                     f"FleetStudyConfig: {name} must be >= 1, got {getattr(self, name)}"
                 )
-        if min(self.agent_seeds, self.shared_seeds) < 0:
-            raise ValueError(f"FleetStudyConfig: agent_seeds and shared_seeds must be >= 0, got"
-                             f" {self.agent_seeds} and {self.shared_seeds}")  # fmt: skip
+        if min(self.agent_seeds, self.shared_seeds, self.bound_iterations) < 0:
+            raise ValueError(f"FleetStudyConfig: agent_seeds, shared_seeds and bound_iterations"
+                             f" must be >= 0, got {self.agent_seeds}, {self.shared_seeds} and"
+                             f" {self.bound_iterations}")  # fmt: skip
         if self.eval_episodes < 2:
             raise ValueError(
                 f"FleetStudyConfig: eval_episodes must be >= 2 (paired intervals),"
@@ -229,6 +246,21 @@ class FleetStudyConfig:
         return [(kind, p, s) for kind, n in (("central", self.agent_seeds),
                                              ("shared", self.shared_seeds))
                 for p in self.agent_predictors for s in range(n)]  # fmt: skip
+
+    def rollout_chunks(self) -> list[list[int]]:
+        """The evaluation seeds, ``rollout_chunk`` to a rollout unit."""
+        seeds, k = self.eval_seeds(), self.rollout_chunk
+        return [seeds[i : i + k] for i in range(0, len(seeds), k)]
+
+    def rollout_key(self, predictor: str, chunk: int) -> str:
+        """A rollout unit's key; its base (the best heuristic) depends on which were tuned."""
+        base = json.dumps([sorted(self.heuristics), self.trials, self.trials_best])
+        digest = hashlib.sha256(base.encode()).hexdigest()[:8]
+        return (f"rollout-{predictor}-h{self.rollout_horizon}-s{self.rollout_samples}"
+                f"-c{self.rollout_chunk}-{chunk}-{digest}")  # fmt: skip
+
+    def bound_key(self) -> str:
+        return f"bound-i{self.bound_iterations}"
 
     def reference_key(self) -> str:
         return f"reference-tail{self.tail}"

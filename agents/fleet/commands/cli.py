@@ -80,7 +80,9 @@ def config_from_args(args: argparse.Namespace) -> FleetStudyConfig:
         n_train_runs=args.n_train_runs, agent_predictors=args.agents,
         agent_seeds=args.agent_seeds, shared_seeds=args.shared_seeds, training=training,
         curve_episodes=args.curve_episodes, curve_every=args.curve_every, tail=args.tail,
-        seed=args.seed,
+        seed=args.seed, rollout_predictors=args.rollout, rollout_horizon=args.rollout_horizon,
+        rollout_samples=args.rollout_samples, rollout_chunk=args.rollout_chunk,
+        bound_iterations=args.bound_iterations,
     )  # fmt: skip
 
 

@@ -50,9 +50,28 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
         help="shifts past the episode the reference plans for",
     )  # fmt: skip
     _add_agent_args(f)
+    _add_planner_args(f)
     add_runner_args(f, workers=2)
     f.add_argument("--atlas", default=None, help="atlas .npz instead of the cache")
     f.set_defaults(func="agents.fleet.commands.cli:cmd_fleet_study")
+
+
+def _add_planner_args(f: argparse.ArgumentParser) -> None:
+    """The bound's and the rollout planner's options (FleetStudyConfig's)."""
+    f.add_argument(
+        "--rollout", type=agent_list, default=(),
+        help="predictors given the rollout planner on their best heuristic ('': none)",
+    )  # fmt: skip
+    f.add_argument("--rollout-horizon", type=int_at_least(1), default=28, help="shifts")
+    f.add_argument("--rollout-samples", type=int_at_least(1), default=16, help="futures")
+    f.add_argument(
+        "--rollout-chunk", type=int_at_least(1), default=5, help="evaluation episodes a unit"
+    )
+    f.add_argument(
+        "--bound-iterations", type=int_at_least(0), default=0,
+        help="price vectors of the Lagrangian bound's search (0: no bound, no price-directed"
+        " policy)",
+    )  # fmt: skip
 
 
 def _add_agent_args(f: argparse.ArgumentParser) -> None:

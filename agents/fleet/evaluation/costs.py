@@ -24,6 +24,7 @@ from scipy.stats import DegenerateDataWarning, bootstrap, trim_mean
 
 from agents.fleet.policies.view import respects
 from brake_env.env.fleet.config import COST_TERMS
+from brake_env.env.fleet.routes import HOT, route_wear_model
 
 F64 = NDArray[np.float64]
 FITS = ("window_fits", "shop_fits", "visits", "corrective_fits")
@@ -40,6 +41,8 @@ class EpisodeCost:
         terms: Total of each cost term (keys of ``info["costs"]``).
         counts: Total of each count of ``info["counts"]`` (fits, failures, ...).
         pad_price: The env's price of a pad (to price pads when fitted).
+        life_value: The pads' life left at the episode's end, priced as the bound's
+            terminal credit (:func:`life_value`): what the policy leaves to the shifts after.
     """
 
     seed: int
@@ -48,6 +51,7 @@ class EpisodeCost:
     terms: dict[str, float] = field(default_factory=dict)
     counts: dict[str, float] = field(default_factory=dict)
     pad_price: float = 0.0
+    life_value: float = 0.0
 
     @property
     def total(self) -> float:
@@ -70,6 +74,13 @@ class EpisodeCost:
         prices when ordered, move it), order and holding costs included."""
         pads = self.pad_price * self.fits - self.terms["pad"]
         return (self.total + pads) / (self.vehicles * self.shifts)
+
+    @property
+    def net(self) -> float:
+        """:attr:`per_vehicle_shift` less the value of the pad life left at the end: an
+        episode's end is arbitrary (the mine goes on), and a policy that runs its pads down
+        before it leaves the next shifts the bill. The Lagrangian bound is on this figure."""
+        return self.per_vehicle_shift - self.life_value / (self.vehicles * self.shifts)
 
     @property
     def model_terms(self) -> float:
@@ -108,7 +119,18 @@ def run_episode(env: Any, policy: Any, seed: int, check_masks: bool = False) -> 
         for k, v in info["counts"].items():
             counts[k] = counts.get(k, 0) + v
         shifts, done = shifts + 1, terminated or truncated
-    return EpisodeCost(seed, n, shifts, terms, counts, base.config.costs.pad)
+    return EpisodeCost(seed, n, shifts, terms, counts, base.config.costs.pad, life_value(base))
+
+
+def life_value(env: Any) -> float:
+    """The fleet's pad life left now, priced: each pad's expected hot life [shifts] (its
+    true volume and K) times ``pad + labour`` over a mean-K pad's hot life, summed."""
+    c = env.config
+    wear = route_wear_model(env.atlas, HOT)
+    truth = env.truth()
+    left = wear.rul(np.clip(truth["volume_frac"], wear.lower_edges[-1], 1.0), truth["wear_coeff"])
+    per_event = (c.costs.pad + c.costs.labour) / float(wear.life(c.k_mean))
+    return float(per_event * left.sum())
 
 
 def run_episodes(

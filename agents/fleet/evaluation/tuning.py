@@ -113,13 +113,15 @@ SPACES: dict[str, Space] = {
 
 @dataclass(frozen=True)
 class Tuned:
-    """A tuned heuristic: its rule, parameters, tuning objective and trials run."""
+    """A tuned heuristic: its rule, parameters, tuning objective, trials run and the best
+    objective after each trial (whether more trials still moved it)."""
 
     name: str
     rule: FleetRule
     params: dict[str, Any]
     tuning_cost: float
     trials: int
+    best_so_far: tuple[float, ...] = ()
 
 
 def tune(
@@ -150,4 +152,6 @@ def tune(
     best = study.best_trial
     rule = space(optuna.trial.FixedTrial(best.params), layout, w)
     assert best.value is not None
-    return Tuned(name, rule, dict(best.params), float(best.value), n_trials)
+    values = np.array([t.value for t in study.trials], dtype=float)
+    history = tuple(float(x) for x in np.minimum.accumulate(values))
+    return Tuned(name, rule, dict(best.params), float(best.value), n_trials, history)

@@ -81,6 +81,12 @@ class BoundModel:
         slack: Units added to every pad's state (its own and new pads'): a pad that
             outlives its expected life by up to ``slack`` units (the law of large numbers
             is not exact) is still within the model's.
+        credit: Terminal credit per unit of pad life left at the episode's end (0: none;
+            :meth:`build` with ``credit=True`` prices it as
+            :func:`agents.fleet.evaluation.costs.life_value` does). With it the bound is
+            on the cost less that credit (:attr:`EpisodeCost.net`); the state's cap is
+            then above every pad's life, so the credit is never cut (a relaxation still:
+            rounding up gives more life, more credit).
     """
 
     config: FleetConfig
@@ -89,21 +95,28 @@ class BoundModel:
     new_prob: F64
     wear: WearModel | None = None
     slack: int = 0
+    credit: float = 0.0
 
     @classmethod
     def build(
-        cls, config: FleetConfig, atlas: Atlas, units: int = 20, slack_shifts: float = 0.0
-    ) -> BoundModel:
+        cls, config: FleetConfig, atlas: Atlas, units: int = 20, slack_shifts: float = 0.0,
+        credit: bool = False,
+    ) -> BoundModel:  # fmt: skip
         """The model of an env's config and atlas (K of the ``id`` regime), every pad
-        given ``slack_shifts`` hot shifts more than its expected life."""
+        given ``slack_shifts`` hot shifts more than its expected life; with ``credit``
+        the pad life left at the end is credited (:attr:`credit`)."""
         if config.regime != "id":
             raise ValueError(f"BoundModel: regime must be 'id', got {config.regime!r}")
         if units < 1:
             raise ValueError(f"BoundModel: units must be >= 1, got {units}")
         wear = route_wear_model(atlas, HOT_ROUTE)
         r_min = float(np.min(route_mean(atlas, MILD_ROUTE) / route_mean(atlas, HOT_ROUTE)))
-        H = config.episode_shifts * units
         unit_events = config.events_per_shift / units
+        # a pad of K six sd below the mean (P ~ 1e-9) outlives the cap only without credit
+        longest = wear.life(max(config.k_mean - 6 * config.k_std, 1e-3 * config.k_mean))
+        H = config.episode_shifts * units
+        if credit:
+            H = max(H, int(np.ceil(float(longest) / unit_events)) + units)
         # P(ceil(life(K) / u) = j) = P(life_work / (j u) <= K < life_work / ((j - 1) u))
         j = np.arange(H + 1, dtype=np.float64)
         with np.errstate(divide="ignore"):
@@ -117,7 +130,11 @@ class BoundModel:
         if slack > 0:
             prob = np.concatenate([np.zeros(slack), prob[:-slack]])
             prob[-1] += 1.0 - prob.sum()
-        return cls(config, units, int(np.floor(units * r_min)), prob, wear, slack)
+        per_unit = (
+            (config.costs.pad + config.costs.labour) * unit_events / float(wear.life(config.k_mean))
+        )
+        mild = int(np.floor(units * r_min))
+        return cls(config, units, mild, prob, wear, slack, per_unit if credit else 0.0)
 
     @property
     def H(self) -> int:
@@ -256,9 +273,11 @@ def q_values(model: BoundModel, prices: Prices, t: int, v_next: F64) -> F64:
 
 
 def solve(model: BoundModel, prices: Prices) -> Program:
-    """Backward induction over the episode (terminal value 0)."""
+    """Backward induction over the episode (terminal value: minus the credit for the pad
+    life left, 0 without credit)."""
     T = model.config.episode_shifts
     values = np.zeros((T + 1, model.H + 1, model.D))
+    values[T] = -model.credit * np.arange(model.H + 1)[:, None]  # the pad life left
     policy = np.zeros((T, model.H + 1, model.D), dtype=np.int8)
     for t in range(T - 1, -1, -1):
         q = q_values(model, prices, t, values[t + 1])

@@ -26,15 +26,16 @@ from brake_env.prognostics.registry import ORACLE
 
 
 def rul_env(
-    config: FleetStudyConfig, atlas: Atlas, predictor: str, fitted: Predictor | None
-) -> Any:
-    """The fleet env with ``predictor``'s RUL appended (``rul_mean`` on the hot and the mild
+    config: FleetStudyConfig, atlas: Atlas, predictor: str, fitted: Predictor | None,
+    fields: tuple[str, ...] = ("rul_mean",),
+) -> Any:  # fmt: skip
+    """The fleet env with ``predictor``'s RUL appended (``fields`` on the hot and the mild
     route per vehicle, in shifts)."""
     env = BrakeWearFleetEnv(config.fleet, atlas=atlas)
     if predictor == ORACLE:
-        return ExpectedRULObservation(env)
+        return ExpectedRULObservation(env, fields)
     assert fitted is not None, f"predictor {predictor!r} needs a fitted predictor"
-    return FleetRULObservation(env, fitted, fields=("rul_mean",))
+    return FleetRULObservation(env, fitted, fields=fields)
 
 
 def layout(config: FleetStudyConfig) -> FleetLayout:
@@ -49,6 +50,7 @@ def episodes_dict(eps: list[EpisodeCost]) -> dict[str, Any]:
         "vehicles": eps[0].vehicles,
         "shifts": np.array([e.shifts for e in eps]),
         "pad_price": eps[0].pad_price,
+        "life_value": np.array([e.life_value for e in eps]),
         "terms": {t: np.array([e.terms[t] for e in eps]) for t in terms},
         "counts": {c: np.array([e.counts.get(c, 0.0) for e in eps], dtype=float) for c in counts},
     }
@@ -57,10 +59,12 @@ def episodes_dict(eps: list[EpisodeCost]) -> dict[str, Any]:
 def episodes_of(d: dict[str, Any]) -> list[EpisodeCost]:
     """:func:`episodes_dict` read back."""
     n = len(d["seed"])
+    left = d.get("life_value", np.zeros(n))
     return [
         EpisodeCost(int(d["seed"][i]), int(d["vehicles"]), int(d["shifts"][i]),
                     {t: float(v[i]) for t, v in d["terms"].items()},
-                    {c: float(v[i]) for c, v in d["counts"].items()}, float(d["pad_price"]))
+                    {c: float(v[i]) for c, v in d["counts"].items()}, float(d["pad_price"]),
+                    float(left[i]))
         for i in range(n)
     ]  # fmt: skip
 

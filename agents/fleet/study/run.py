@@ -78,7 +78,10 @@ def report(summary: dict[str, Any], markdown: bool = False) -> str:
         f" the combination) on {c['tune_episodes']} tuning episodes each. Cost per vehicle-shift,"
         " pads priced when fitted; intervals 95%, paired over episodes."
     ]
-    head = ["predictor", "policy", "cost", "tuning cost", "ratio to reference", "fits", "failures"]
+    bound = summary.get("bound")
+    gap = ["net cost", "gap to bound (net)"] if bound else []
+    head = ["predictor", "policy", "cost", "tuning cost", "ratio to reference", *gap, "fits",
+            "failures"]  # fmt: skip
     rows = [head]
     best = summary["best_heuristic"]
     for r in summary["rows"]:
@@ -86,12 +89,14 @@ def report(summary: dict[str, Any], markdown: bool = False) -> str:
         fits = r["window_fits"] + r["shop_fits"] + r["visits"] + r["corrective_fits"]
         tuning = "" if r["tuning_cost"] is None else f"{r['tuning_cost']:.2f}"
         ratio = _ivs(r.get("ratio_to_reference"))
+        to_bound = [f"{r['net_cost']:.2f}", _ivs(r.get("gap_to_bound"))] if bound else []
         rows.append([r["predictor"], r["policy"] + mark, f"{r['cost']:.2f}", tuning, ratio,
-                     f"{fits:.1f}", f"{r['failures']:.2f}"])  # fmt: skip
+                     *to_bound, f"{fits:.1f}", f"{r['failures']:.2f}"])  # fmt: skip
     for a in summary["agents"].values():
         rows.append([a["predictor"], f"{_agent_name(a)} (IQM of {a['seeds']} seeds)",
                      _ivs(a["iqm"], 2), "", _ivs(a.get("ratio_to_reference")), "", ""])  # fmt: skip
     lines += [table(rows, markdown), "* the predictor's best heuristic (on the tuning episodes)"]
+    lines += _planner_lines(summary)
     rk = summary["ranking"]
     lines.append("\nPredictors by their best heuristic's cost: "
                  + ", ".join(f"{p} {rk['cost'][p]:.2f}" for p in rk["order"]))  # fmt: skip
@@ -110,6 +115,28 @@ def report(summary: dict[str, Any], markdown: bool = False) -> str:
             f"{max(a['train_seconds']):.0f} s a seed{_agreement(a)}"
         )
     return ("\n\n" if markdown else "\n").join(lines)  # Markdown: a table needs a blank line
+
+
+def _planner_lines(summary: dict[str, Any]) -> list[str]:
+    """The bound and the rollout planners against their bases."""
+    lines = []
+    b = summary.get("bound")
+    if b:
+        lines.append(
+            f"\nLagrangian lower bound (any policy, any information) on the cost net of the pad"
+            f" life left at the end: {b['cost']:.3f} per vehicle-shift on these episodes"
+            f" ({min(b['episodes']):.3f}-{max(b['episodes']):.3f};"
+            f" {b['iterations']} price vectors, {b['seconds']['bound']:.0f} s; at zero prices"
+            f" {b['zero_prices']:.3f}). Gaps to it are paired over episodes."
+        )
+    for p, r in summary.get("rollout", {}).items():
+        lines.append(
+            f"Rollout on the {p}'s {r['base']}: {r['cost']:.3f} against its base's"
+            f" {r['base_cost']:.3f}, difference {_ivs(r['minus_base'])}, ratio"
+            f" {_ivs(r['ratio_to_base'])}; {r['seconds_per_shift']:.2f} s a decision"
+            f" ({r['seconds'] / 60:.1f} min of evaluation in all)"
+        )
+    return lines
 
 
 def _agreement(a: dict[str, Any]) -> str:

@@ -26,6 +26,7 @@ from agents.fleet.evaluation.costs import (
 )
 from agents.fleet.settings import FleetStudyConfig
 from agents.fleet.study.build import episodes_of
+from agents.fleet.study.planners import BOUND, PRICED
 from agents.fleet.study.units import best_heuristic
 from brake_env.prognostics.registry import ORACLE
 
@@ -56,7 +57,10 @@ def summarise(
     for (p, h), e in eps.items():
         u = units[config.heuristic_key(p, h)]
         rows.append(_row(p, h, e, ref, u["tuning_cost"], params=u["params"]))
+        if "best_so_far" in u:  # whether more trials still moved the tuning objective
+            rows[-1]["best_so_far"] = np.asarray(u["best_so_far"]).tolist()
     best = {p: best_heuristic(config, units, p) for p in config.predictors}
+    planners = _planners(config, units, eps, best, ref, rows)
     ranking = _ranking(config, eps, best)
     agents = {}
     for kind, n in (("central", config.agent_seeds), ("shared", config.shared_seeds)):
@@ -72,9 +76,46 @@ def summarise(
         "ranking": ranking,
         "agents": agents,
         "terms": {f"{p} / {best[p]}": term_means(eps[(p, best[p])]) for p in config.predictors},
+        **planners,
     }
     if ref is not None:
         out["terms"][REFERENCE] = term_means(ref)
+    return out
+
+
+def _planners(
+    config: FleetStudyConfig, units: dict[str, Any], eps: dict[tuple[str, str], list[EpisodeCost]],
+    best: dict[str, str], ref: list[EpisodeCost] | None, rows: list[dict[str, Any]],
+) -> dict[str, Any]:  # fmt: skip
+    """The price-directed policy's and the rollout planners' rows (appended to ``rows``);
+    every row's paired gap to the Lagrangian bound; ``bound`` and ``rollout`` summaries."""
+    out: dict[str, Any] = {"rollout": {}}
+    for p in config.rollout_predictors:
+        chunks = [units[config.rollout_key(p, i)] for i in range(len(config.rollout_chunks()))]
+        got = [e for c in chunks for e in episodes_of(c["episodes"])]
+        rows.append(_row(p, chunks[0]["policy"], got, ref, None))
+        x, base = costs(got), costs(eps[(p, best[p])])
+        seconds = sum(float(c["seconds"]) for c in chunks)
+        out["rollout"][p] = {
+            "base": best[p], "cost": float(x.mean()), "base_cost": float(base.mean()),
+            "minus_base": _iv(paired_interval(x, base, "difference")),
+            "ratio_to_base": _iv(paired_interval(x, base, "ratio")),
+            "seconds": seconds, "seconds_per_shift": seconds / sum(e.shifts for e in got),
+        }  # fmt: skip
+    if not config.bound_iterations:
+        return out
+    b = units[config.bound_key()]
+    rows.append(_row(ORACLE, PRICED, episodes_of(b["priced"]), ref, None))
+    bound = np.asarray(b["bound"], dtype=float)
+    for r in rows:  # the bound is on the cost net of the pad life left (EpisodeCost.net)
+        x = np.asarray(r["episodes"]["net"])
+        r["gap_to_bound"] = _iv(paired_interval(x, bound, "difference"))
+        r["ratio_to_bound"] = _iv(paired_interval(x, bound, "ratio"))
+    out["bound"] = {
+        "policy": BOUND, "cost": float(bound.mean()), "episodes": bound.tolist(),
+        "zero_prices": float(b["zero_prices_bound"]), "iterations": int(b["iterations"]),
+        "seconds": dict(b["seconds"]),
+    }  # fmt: skip
     return out
 
 
@@ -91,8 +132,9 @@ def _row(
     tuning: float | None, params: dict[str, Any] | None = None,
 ) -> dict[str, Any]:  # fmt: skip
     x = costs(eps)
+    net = np.array([e.net for e in eps])
     row: dict[str, Any] = {"predictor": predictor, "policy": policy, "cost": float(x.mean()),
-                           "tuning_cost": tuning}  # fmt: skip
+                           "net_cost": float(net.mean()), "tuning_cost": tuning}  # fmt: skip
     if ref is not None and eps is not ref:
         r = costs(ref)
         row["gap_to_reference"] = _iv(paired_interval(x, r, "difference"))
@@ -103,7 +145,7 @@ def _row(
         row["params"] = params
     # Per evaluation episode (the same seeds for every row): what a reader needs to pair
     # any two policies (benchmarks/fleet_room.py).
-    row["episodes"] = {"seed": [e.seed for e in eps], "cost": x.tolist(),
+    row["episodes"] = {"seed": [e.seed for e in eps], "cost": x.tolist(), "net": net.tolist(),
                        "model_terms": [e.model_terms for e in eps]}  # fmt: skip
     return row
 

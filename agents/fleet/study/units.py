@@ -35,6 +35,7 @@ from agents.fleet.evaluation.costs import run_episodes
 from agents.fleet.evaluation.tuning import tune
 from agents.fleet.settings import TRAIN_SEED0, FleetStudyConfig
 from agents.fleet.study.build import episodes_dict, layout, rebuild_rule, rul_env
+from agents.fleet.study.planners import bound_unit, rollout_unit
 from brake_env.model.atlas import Atlas
 from brake_env.model.regime import WearRegime
 from brake_env.prognostics.protocol import Predictor
@@ -53,6 +54,10 @@ def study_keys(config: FleetStudyConfig) -> list[str]:
     if config.has_reference:
         keys.append(config.reference_key())
     keys += [config.agent_key(p, s, kind) for kind, p, s in config.agent_runs()]
+    keys += [config.rollout_key(p, i) for p in config.rollout_predictors
+             for i in range(len(config.rollout_chunks()))]  # fmt: skip
+    if config.bound_iterations:
+        keys.append(config.bound_key())
     return keys
 
 
@@ -109,6 +114,10 @@ def weights(config: FleetStudyConfig) -> dict[str, float]:
     cloned = st.imitation_episodes * (st.imitation_rounds + 1) * config.shifts
     for kind, p, s in config.agent_runs():
         w[config.agent_key(p, s, kind)] = 3.0 * (st.timesteps + cloned) + n_eval
+    for p in config.rollout_predictors:  # ~100 env shifts of model work a decision
+        for i, seeds in enumerate(config.rollout_chunks()):
+            w[config.rollout_key(p, i)] = 100.0 * len(seeds) * config.shifts
+    w[config.bound_key()] = 3.0 * n_eval
     return w
 
 
@@ -160,6 +169,30 @@ def study_graph(config: FleetStudyConfig, runner: Runner, atlas: Any) -> list[Un
     nodes += [Later(config.agent_key(p, s, kind), fit_of(p) + h_keys(p),
                     partial(agent, kind=kind, p=p, s=s))
               for kind, p, s in config.agent_runs()]  # fmt: skip
+    return nodes + _planners(config, w, atlas, fitted, fit_of, h_keys)
+
+
+def _planners(
+    config: FleetStudyConfig, w: dict[str, float], atlas: Any, fitted: Any, fit_of: Any,
+    h_keys: Any,
+) -> list[Unit | Later]:  # fmt: skip
+    """The bound (with the price-directed policy) and the rollout planner's chunks, each
+    after its predictor's fit and heuristics (its base is the best of them)."""
+
+    def rollout(r: Mapping[str, Any], p: str, i: int, seeds: list[int]) -> Unit:
+        h = best_heuristic(config, dict(r), p)
+        base = (h, r[config.heuristic_key(p, h)]["params"])
+        k = config.rollout_key(p, i)
+        return Unit(k, rollout_unit, (config, atlas, p, fitted(p, r), base, seeds), w[k])
+
+    nodes: list[Unit | Later] = [
+        Later(config.rollout_key(p, i), fit_of(p) + h_keys(p),
+              partial(rollout, p=p, i=i, seeds=seeds))
+        for p in config.rollout_predictors for i, seeds in enumerate(config.rollout_chunks())
+    ]  # fmt: skip
+    if config.bound_iterations:
+        k = config.bound_key()
+        nodes.append(Unit(k, bound_unit, (config, atlas), w[k]))
     return nodes
 
 
@@ -196,6 +229,7 @@ def heuristic_unit(
     return {
         "predictor": predictor, "policy": heuristic, "params": tuned.params,
         "tuning_cost": tuned.tuning_cost, "trials": tuned.trials,
+        "best_so_far": np.array(tuned.best_so_far),
         "episodes": episodes_dict(eps),
         "seconds": {"tune": t1 - t0, "evaluate": time.perf_counter() - t1},
     }  # fmt: skip

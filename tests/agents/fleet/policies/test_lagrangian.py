@@ -4,6 +4,7 @@ with the real coupling and against the exact 2-vehicle reference, the search."""
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import itertools
 
@@ -80,8 +81,8 @@ def brute_force(m: BoundModel, h0: tuple[int, ...]) -> float:
 
     @functools.cache
     def value(t: int, state: tuple) -> float:
-        if t == c.episode_shifts:
-            return 0.0
+        if t == c.episode_shifts:  # the pad life left, credited (BoundModel.credit)
+            return -m.credit * sum(h for h, _ in state)
         window = c.is_window(t)
         down = sum(d > 0 for _, d in state)
         best = np.inf
@@ -133,6 +134,36 @@ def test_bound_is_below_the_brute_force_optimum(n, T, h0, kwargs):
     best = search(m, start, iterations=30)
     assert best.bound <= exact + 1e-6
     assert best.bound >= best.zero_bound
+
+
+@pytest.mark.parametrize(("n", "T", "h0"), [(2, 6, (1, 3)), (3, 4, (0, 1, 3))])
+def test_the_credited_bound_is_below_the_credited_optimum(n, T, h0):
+    """With a terminal credit for the pad life left (the study's bound, on the net cost),
+    the bound stays below the exact optimum of the credited problem; the credit lowers
+    both, and the bound's program values the last shift's pads at minus the credit."""
+    plain = toy(n, T)
+    m = dataclasses.replace(plain, credit=150.0)
+    exact, exact_plain = brute_force(m, h0), brute_force(plain, h0)
+    assert exact < exact_plain
+    start = start_counts(m, np.array(h0))
+    best = search(m, start, iterations=30)
+    assert best.bound <= exact + 1e-6
+    np.testing.assert_allclose(solve(m, Prices.zeros(m.config)).values[T][:, 0],
+                               -150.0 * np.arange(m.H + 1))  # fmt: skip
+
+
+def test_the_credit_is_priced_as_the_policies_net_cost_and_never_capped():
+    from agents.fleet.evaluation.costs import life_value
+
+    cfg = FleetConfig(episode_shifts=30)
+    env = BrakeWearFleetEnv(cfg)
+    m = BoundModel.build(cfg, env.atlas, units=4, credit=True)
+    assert BoundModel.build(cfg, env.atlas, units=4).credit == 0.0
+    assert m.H * cfg.events_per_shift / m.units > float(m.wear.life(0.4 * cfg.k_mean))
+    env.reset(seed=0)
+    tr = env.truth()
+    h = m.state(tr["volume_frac"], tr["wear_coeff"])  # rounded up: at least the life
+    assert m.credit * h.sum() >= life_value(env) > m.credit * (h - 1).sum()
 
 
 def test_the_single_vehicle_bound_is_its_exact_optimum_when_nothing_links():

@@ -14,6 +14,7 @@ from scipy.stats import trim_mean
 from agents.fleet.evaluation.costs import iqm, run_episode, seeds_interval
 from agents.fleet.settings import FleetStudyConfig, FleetTraining
 from agents.fleet.study.build import rebuild_rule, rul_env
+from agents.fleet.study.planners import PRICED
 from agents.fleet.study.plots import SHOP, trace_episode
 from agents.fleet.study.run import run_fleet_study
 from agents.fleet.study.summary import REFERENCE
@@ -26,7 +27,8 @@ TINY = FleetStudyConfig(
     shifts=30, predictors=("none", "oracle"), heuristics=("threshold", "(n, N)"), trials=2,
     trials_best=2, tune_episodes=1, eval_episodes=3, n_train_runs=2,
     agent_predictors=("oracle",), agent_seeds=2, shared_seeds=1, training=TINY_TRAINING,
-    curve_episodes=1, curve_every=64, tail=20,
+    curve_episodes=1, curve_every=64, tail=20, rollout_predictors=("oracle",),
+    rollout_horizon=3, rollout_samples=2, rollout_chunk=2, bound_iterations=3,
 )  # fmt: skip
 
 
@@ -62,8 +64,14 @@ def test_the_config_names_what_is_wrong():
         FleetStudyConfig(eval_episodes=1)
     with pytest.raises(ValueError, match="size"):
         FleetStudyConfig(size="huge")  # type: ignore[arg-type]
-    with pytest.raises(ValueError, match="agent_seeds and shared_seeds"):
+    with pytest.raises(ValueError, match="agent_seeds, shared_seeds and bound_iterations"):
         FleetStudyConfig(agent_seeds=-1)
+    with pytest.raises(ValueError, match="rollout predictor"):
+        FleetStudyConfig(predictors=("oracle",), rollout_predictors=("twin",))
+    with pytest.raises(ValueError, match="rollout_samples"):
+        FleetStudyConfig(rollout_samples=0)
+    chunks = FleetStudyConfig(eval_episodes=7, rollout_chunk=3).rollout_chunks()
+    assert chunks == [[0, 1, 2], [3, 4, 5], [6]]
     only_shared = FleetStudyConfig(agent_predictors=("twin",), agent_seeds=0, shared_seeds=2)
     assert only_shared.agent_runs() == [("shared", "twin", 0), ("shared", "twin", 1)]
 
@@ -77,8 +85,25 @@ def study(atlas, tmp_path_factory):
 def test_the_study_runs_every_policy_on_the_same_episodes(study):
     out, s = study
     policies = {(r["predictor"], r["policy"]) for r in s["rows"]}
+    base = s["best_heuristic"]["oracle"]
     assert policies == {("oracle", REFERENCE), ("none", "threshold"), ("none", "(n, N)"),
-                        ("oracle", "threshold"), ("oracle", "(n, N)")}  # fmt: skip
+                        ("oracle", "threshold"), ("oracle", "(n, N)"), ("oracle", PRICED),
+                        ("oracle", f"rollout on {base}")}  # fmt: skip
+    # the bound: one figure an episode, each row's gap to it paired over the episodes, on
+    # the cost net of the pad life left at the end (less than the cost: some life is left)
+    bound = np.array(s["bound"]["episodes"])
+    assert len(bound) == TINY.eval_episodes and s["bound"]["iterations"] == 4
+    for r in s["rows"]:
+        assert r["net_cost"] < r["cost"]
+        gap = r["gap_to_bound"]
+        assert gap["point"] == pytest.approx(r["net_cost"] - bound.mean())
+        assert gap["low"] <= gap["point"] <= gap["high"]
+    # the rollout planner's episodes (two units) are the evaluation episodes, in order
+    ro = next(r for r in s["rows"] if r["policy"].startswith("rollout"))
+    assert ro["episodes"]["seed"] == TINY.eval_seeds()
+    r = s["rollout"]["oracle"]
+    assert r["base"] == base and r["seconds_per_shift"] > 0
+    assert r["minus_base"]["point"] == pytest.approx(r["cost"] - r["base_cost"])
     for r in s["rows"]:
         assert r["cost"] > 0
         if r["policy"] != REFERENCE:
@@ -87,7 +112,7 @@ def test_the_study_runs_every_policy_on_the_same_episodes(study):
     # The best heuristic is the one of least tuning cost, never chosen on evaluation.
     for p, h in s["best_heuristic"].items():
         tuned = {r["policy"]: r["tuning_cost"] for r in s["rows"] if r["predictor"] == p
-                 and r["policy"] != REFERENCE}  # fmt: skip
+                 and r["tuning_cost"] is not None}  # the tuned heuristics  # fmt: skip
         assert tuned[h] == min(tuned.values())
     a = s["agents"]["oracle"]
     assert (
@@ -112,7 +137,7 @@ def test_the_study_runs_every_policy_on_the_same_episodes(study):
 def test_a_rerun_resumes_from_the_units_with_the_same_figures(study, atlas, capsys):
     out, s = study
     again = run_fleet_study(TINY, atlas, out, Runner(0), n_resamples=200)
-    assert "resuming: 8 of 8 units" in capsys.readouterr().err
+    assert "resuming: 11 of 11 units" in capsys.readouterr().err
     assert again["rows"] == s["rows"] and again["agents"]["oracle"]["seed_costs"] == s["agents"][
         "oracle"]["seed_costs"]  # fmt: skip
 
@@ -191,7 +216,9 @@ def test_fleet_room_reads_the_study_s_episodes(study):
     out, _ = study
     s = json.loads((out / "costs.json").read_text())
     rows = room.room_rows(s, "oracle")
-    assert [r["policy"] for r in rows] == [REFERENCE, "threshold", "(n, N)"]
+    base = s["best_heuristic"]["oracle"]
+    assert [r["policy"] for r in rows] == [REFERENCE, "threshold", "(n, N)", f"rollout on {base}",
+                                           PRICED]  # fmt: skip
     ref = next(r for r in s["rows"] if r["policy"] == REFERENCE)["episodes"]
     assert len(ref["predicted"]) == len(ref["cost"]) == TINY.eval_episodes
     for line in rows[1:]:

@@ -1,0 +1,217 @@
+"""Multiagent rollout on a fleet rule (Bertsekas 2021): each shift the vehicles are decided
+one at a time, each choice scored by simulating the base rule forward in the planning model
+(:mod:`.planning`) over sampled futures with common random numbers.
+
+**The decision.** Start from the base rule's action. A first pass scores, in one batch,
+every single deviation from it (one vehicle's other allowed action, the others at the
+base's); the vehicles where some deviation wins are then decided one at a time, least RUL
+first: for vehicle ``i`` every action its mask allows is scored with the vehicles decided
+before it at their chosen actions and the others at the base's. A score is a cost per
+sampled future: the shift simulated with that joint action, then ``horizon - 1`` shifts
+of the base rule (:mod:`.batch_rule`), in the same ``samples`` futures for every
+candidate, plus a terminal value of the fleet at the horizon: the relaxed per-vehicle
+program's cost-to-go (:class:`~.planning.ProgramValue`) when given, else each pad's hot
+life left priced at ``(pad + labour) / mean_life`` a shift (a new pad's fit cost spread
+over its mean life), so that using a pad up is not free. A candidate replaces the current
+action only if its mean cost is lower by more than ``confidence`` standard errors of the
+paired difference (a few futures are noisy; churn on noise costs pad life). Service is a
+candidate only below ``service_below`` shifts of hot life (or where the base sends it).
+The order is the base rule's (s, S) on the chosen services. Cost per shift: about
+``(3n + 1) x samples x horizon`` model shifts in one batch, then as many again per
+vehicle contested.
+
+**Beliefs, never the truth.** The futures start from what the observation shows: each pad's
+hot life is sampled around the RUL the predictor gives, normal with the spread of its
+interval where the layout has ``rul_lower`` and ``rul_upper`` (a 90% interval: half-width
+over 1.645), the point estimate otherwise (the oracle's, or a predictor without an
+interval); new pads from the config's K distribution; breakdowns by the config's rate. A
+vehicle down in the shop is taken as down after a breakdown (the observation does not say
+which). Inside the futures the base rule acts on the sampled lives (it sees the future's
+pads as they are there).
+
+**It does not exploit the episode's end**: futures run past it, with the terminal value,
+as for a mine that goes on.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from agents.fleet.policies import batch_rule
+from agents.fleet.policies.planning import FleetState, Futures, PlanningModel, ProgramValue
+from agents.fleet.policies.rules import FleetRule, reorder
+from agents.fleet.policies.view import FleetLayout, FleetView
+from brake_env.env.fleet.rules import fits_capacity
+from brake_env.env.fleet.shop import SERVICE
+from brake_env.env.fleet.spaces import read_observation
+
+F64 = NDArray[np.float64]
+I64 = NDArray[np.int64]
+Z90 = 1.6448536269514722  # a 90% interval's half-width in standard deviations
+
+
+class RolloutPolicy:
+    """Multiagent rollout on ``base`` (module docstring), with SB3's ``predict`` signature.
+
+    Args:
+        base: The base rule (a tuned heuristic); its layout says where the RUL is.
+        model: The planning model of the env's config and atlas.
+        horizon: Shifts simulated per candidate (the first with the candidate).
+        samples: Futures per candidate (common to all candidates).
+        seed: Seed of the futures (with the shift: the same state, the same futures).
+        confidence: Standard errors by which a candidate must beat the current action.
+        service_below: Hot life [shifts] below which service is a candidate.
+        terminal: The terminal value (None: pad life priced linearly).
+    """
+
+    def __init__(
+        self, base: FleetRule, model: PlanningModel, horizon: int = 28, samples: int = 16,
+        seed: int = 0, *, confidence: float = 1.0, service_below: float = 28.0,
+        terminal: ProgramValue | None = None,
+    ) -> None:  # fmt: skip
+        if horizon < 1 or samples < 1:
+            raise ValueError(f"RolloutPolicy: horizon and samples must be >= 1, got {horizon}"
+                             f" and {samples}")  # fmt: skip
+        if base.layout.config != model.config:
+            raise ValueError("RolloutPolicy: the base rule and the model have different configs")
+        self.base, self.model = base, model
+        self.horizon, self.samples, self.seed = horizon, samples, seed
+        self.confidence, self.service_below = confidence, service_below
+        self.terminal = terminal
+        self.name = f"rollout on {base.name}"
+        self._orders: list[tuple[int, int]] = []  # (shift, quantity) this episode
+
+    @property
+    def layout(self) -> FleetLayout:
+        return self.base.layout
+
+    def predict(
+        self,
+        observation: NDArray[Any],
+        state: tuple[NDArray[Any], ...] | None = None,
+        episode_start: NDArray[np.bool_] | None = None,
+        deterministic: bool = False,
+    ) -> tuple[NDArray[Any], tuple[NDArray[Any], ...] | None]:
+        obs = np.asarray(observation)
+        if obs.ndim == 2:
+            return np.stack([self.act(o) for o in obs]), state
+        return self.act(obs), state
+
+    def act(self, observation: NDArray[Any]) -> I64:
+        """The action (duties, then the order) for one observation."""
+        view = FleetView.read(observation, self.layout)
+        duty = self.base.act(view)[:-1].copy()
+        rng = np.random.default_rng([self.seed, view.shift])
+        start = self.start(observation, view, rng)
+        futures = self.model.draw(rng, self.samples, self.horizon)
+        n = len(duty)
+        allowed = view.mask(self.layout.max_order)[: 4 * n].reshape(n, 4)
+        allowed[:, SERVICE] &= (view.rul < self.service_below) | (duty == SERVICE)
+        for v in self._contested(start, duty, allowed & self._room(view, duty), futures, view.rul):
+            choices = np.flatnonzero(allowed[v] & self._room(view, duty)[v])
+            joints = np.repeat(duty[None], len(choices), axis=0)
+            joints[:, v] = choices
+            mine = int(np.flatnonzero(choices == duty[v])[0])
+            better = self._better(self.costs(start, joints, futures), mine)
+            if better is not None:
+                duty = joints[better]
+        p = self.base.params
+        fits = int((duty == SERVICE).sum())
+        order = reorder(view.stock, view.transit, fits, p.s, p.S, self.layout.max_order)
+        self._orders.append((view.shift, order))
+        return np.append(duty, order).astype(np.int64)
+
+    def _room(self, view: FleetView, duty: I64) -> NDArray[np.bool_]:
+        """(n, 4): False where service would not fit the spares, slots and bays with the
+        other vehicles' services in ``duty`` (the workshop would defer it: the vehicle
+        loses the shift)."""
+        ok = np.ones((len(duty), 4), dtype=bool)
+        c = self.model.config
+        for v in np.flatnonzero(duty != SERVICE):
+            fits = duty == SERVICE
+            fits[v] = True
+            ok[v, SERVICE] = fits_capacity(c, view.window, fits, view.down, view.stock,
+                                           view.free_bays)  # fmt: skip
+        return ok
+
+    def _contested(
+        self, start: FleetState, duty: I64, allowed: NDArray[np.bool_], futures: Futures,
+        rul: F64,
+    ) -> I64:  # fmt: skip
+        """The vehicles, least RUL first, for which some other action beats the base
+        joint action on its own (every single deviation scored in one batch)."""
+        v, a = np.nonzero(allowed & (np.arange(4)[None, :] != duty[:, None]))
+        if len(v) == 0:
+            return v
+        joints = np.repeat(duty[None], len(v) + 1, axis=0)
+        joints[np.arange(1, len(v) + 1), v] = a
+        cost = self.costs(start, joints, futures)
+        wins = [self._better(cost[[0, i + 1]], 0) == 1 for i in range(len(v))]
+        found = np.unique(v[np.array(wins, dtype=bool)])
+        return found[np.argsort(rul[found], kind="stable")]
+
+    def _better(self, cost: F64, mine: int) -> int | None:
+        """The candidate (row of per-future ``cost``) of least mean cost, if it beats row
+        ``mine`` by more than ``confidence`` standard errors of their paired difference."""
+        best = int(np.argmin(cost.mean(axis=1)))
+        d = cost[best] - cost[mine]
+        se = d.std(ddof=1) / np.sqrt(len(d)) if len(d) > 1 else 0.0
+        return best if d.mean() < -self.confidence * se - 1e-9 else None
+
+    def pipeline(self, view: FleetView) -> I64:
+        """Arrivals in 1..lead_time shifts from the orders this policy placed (the
+        observation shows only their total); what it did not place (a policy swapped in
+        mid-episode) is taken as due last."""
+        if self._orders and view.shift <= self._orders[-1][0]:
+            self._orders = []  # a new episode
+        lead = self.model.config.lead_time
+        due = np.zeros(lead, dtype=np.int64)
+        for shift, quantity in self._orders:
+            i = shift + lead - view.shift - 1
+            if 0 <= i < lead:
+                due[i] += quantity
+        due[-1] += max(view.transit - int(due.sum()), 0)
+        return due
+
+    def start(
+        self, observation: NDArray[Any], view: FleetView, rng: np.random.Generator
+    ) -> FleetState:
+        """The futures' common start: the belief over each pad's hot life, sampled."""
+        lay = self.layout
+        o = read_observation(observation, lay.n_vehicles, lay.per_vehicle)
+        h = np.repeat(view.rul[None], self.samples, axis=0)
+        if view.rul_lower is not None and view.rul_upper is not None:
+            sd = (view.rul_upper - view.rul_lower) / (2 * Z90)
+            h = h + sd[None] * rng.standard_normal(h.shape)
+        down = np.rint(o.vehicle("down_shifts")).astype(np.int64)
+        return self.model.start(
+            np.maximum(h, 0.0), view.age, down, view.stock, self.pipeline(view), view.shift
+        )
+
+    def costs(self, start: FleetState, joints: I64, futures: Futures) -> F64:
+        """Each joint action's cost in each future (rows: joints), terminal value
+        included."""
+        m, c, p = self.model, self.model.config, self.base.params
+        k, s = len(joints), self.samples
+        rows = np.tile(np.arange(s), k)
+        state = start.take(rows)
+        duty = np.repeat(joints, s, axis=0)
+        fits = (duty == SERVICE).sum(axis=1)
+        position = state.stock + state.transit.sum(axis=1) - fits
+        order = np.where(position >= p.s, 0, np.clip(p.S - position, 0, c.max_order))
+        cost = m.step(state, duty, order, futures, 0, rows)
+        for t in range(1, self.horizon):
+            view = batch_rule.BatchView(
+                state.h, state.down > 0, state.stock, state.transit.sum(axis=1),
+                state.free_bays(c.bays), c.shifts_to_window(state.shift),
+            )  # fmt: skip
+            duty, order = batch_rule.act(p, c, view)
+            cost += m.step(state, duty, order, futures, t, rows)
+        if self.terminal is not None:
+            cost += self.terminal(state.h, state.down, state.shift)
+        else:
+            cost -= m.fit_cost / m.mean_life * np.maximum(state.h, 0.0).sum(axis=1)
+        return cost.reshape(k, s)

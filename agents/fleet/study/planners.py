@@ -1,0 +1,92 @@
+"""The fleet study's planners (issue 30): the Lagrangian lower bound with the price-directed
+policy (:func:`bound_unit`), and the rollout planner on a predictor's best tuned heuristic
+(:func:`rollout_unit`, ``rollout_chunk`` evaluation episodes a unit so that Ray spreads
+them), each a unit of :func:`agents.fleet.study.units.study_graph`.
+
+The bound is on the cost net of the pad life left at the episode's end
+(:attr:`~agents.fleet.evaluation.costs.EpisodeCost.net`; its program credits that life as
+the policies' figure does): without the credit it would plan to run the pads down for an
+episode that stops, which no policy of a mine that goes on does. The bound's prices are
+searched once for the mean of the evaluation episodes' starting
+states (a bound at any prices is valid), then each episode's bound is evaluated at its own
+start: a lower bound on the expected cost of every policy on that episode, whatever its
+information (the bound knows each pad's K). The price-directed policy reads the env's
+truth (a reference, not deployable).
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Any
+
+import numpy as np
+
+from agents.fleet.evaluation.costs import run_episodes
+from agents.fleet.evaluation.tuning import SPACES
+from agents.fleet.policies.lagrangian import BoundModel, bound, start_counts
+from agents.fleet.policies.lagrangian_search import search
+from agents.fleet.policies.planning import PlanningModel
+from agents.fleet.policies.priced import PricedPolicy
+from agents.fleet.policies.rollout import RolloutPolicy
+from agents.fleet.policies.view import FleetLayout
+from agents.fleet.settings import FleetStudyConfig
+from agents.fleet.study.build import episodes_dict, rul_env
+from brake_env.env.fleet.env import BrakeWearFleetEnv
+from brake_env.model.atlas import Atlas
+from brake_env.prognostics.protocol import Predictor
+from brake_env.prognostics.registry import ORACLE
+
+BOUND = "Lagrangian bound"
+PRICED = "price-directed (truth)"
+INTERVAL = ("rul_mean", "rul_lower", "rul_upper")
+
+
+def bound_unit(config: FleetStudyConfig, atlas: Atlas) -> dict[str, Any]:
+    """The bound on each evaluation episode [per vehicle-shift], and the price-directed
+    policy's episodes."""
+    t0 = time.perf_counter()
+    cfg = config.fleet
+    env = BrakeWearFleetEnv(cfg, atlas=atlas)
+    model = BoundModel.build(cfg, atlas, credit=True)
+    states = []
+    for seed in config.eval_seeds():
+        env.reset(seed=seed)
+        truth = env.truth()
+        states.append(model.state(truth["volume_frac"], truth["wear_coeff"]))
+    result = search(model, start_counts(model, np.array(states)), config.bound_iterations)
+    per = cfg.n_vehicles * cfg.episode_shifts
+    bounds = [bound(model, result.program, result.prices, start_counts(model, s)) / per
+              for s in states]  # fmt: skip
+    t1 = time.perf_counter()
+    policy = PricedPolicy(env, model, result.prices, result.program)
+    eps = run_episodes(env, policy, config.eval_seeds(), check_masks=True)
+    return {
+        "bound": np.array(bounds), "zero_prices_bound": result.zero_bound / per,
+        "iterations": result.iterations, "priced": episodes_dict(eps),
+        "seconds": {"bound": t1 - t0, "priced": time.perf_counter() - t1},
+    }  # fmt: skip
+
+
+def rollout_unit(
+    config: FleetStudyConfig, atlas: Atlas, predictor: str, fitted: Predictor | None,
+    base: tuple[str, dict[str, Any]], seeds: list[int],
+) -> dict[str, Any]:  # fmt: skip
+    """The rollout planner on ``base`` (the predictor's best heuristic: name, parameters)
+    on the evaluation episodes ``seeds``; with the decision time per shift."""
+    import optuna  # the fleet extra, imported where used (as in tuning.tune)
+
+    fields = ("rul_mean",) if predictor == ORACLE else INTERVAL
+    env = rul_env(config, atlas, predictor, fitted, fields)
+    lay = FleetLayout.of(config.fleet, fields=fields)
+    name, params = base
+    rule = SPACES[name](optuna.trial.FixedTrial(params), lay, config.fleet.window_period)
+    policy = RolloutPolicy(rule, PlanningModel.build(config.fleet, atlas),
+                           config.rollout_horizon, config.rollout_samples, config.seed)  # fmt: skip
+    t0 = time.perf_counter()
+    eps = run_episodes(env, policy, seeds, check_masks=True)
+    seconds = time.perf_counter() - t0
+    return {
+        "predictor": predictor, "policy": policy.name, "base": name,
+        "episodes": episodes_dict(eps), "seconds": seconds,
+        "seconds_per_shift": seconds / sum(e.shifts for e in eps),
+    }  # fmt: skip
