@@ -9,15 +9,10 @@ SEED   ?= 0
 
 .PHONY: demo test lint bench clean venv
 
-# pip byte-compiles what it installs one file at a time (~40 s of CPU here, torch and Ray
-# most of it); compileall does the same work on every core. Errors are ignored, as pip
-# ignores them (torch ships a Python 3.12-only test file).
 $(STAMP): pyproject.toml constraints.txt
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/pip install --quiet --upgrade pip
-	$(BIN)/pip install --quiet --no-compile -c constraints.txt -e ".[rl,ray,dev,fleet]"
-	$(BIN)/python -c "import compileall, sysconfig; \
-	  compileall.compile_dir(sysconfig.get_paths()['purelib'], quiet=2, workers=0)"
+	$(BIN)/pip install --quiet -c constraints.txt -e ".[rl,ray,dev,fleet]"
 	touch $(STAMP)
 
 venv: $(STAMP)
