@@ -28,7 +28,7 @@ test: $(STAMP)
 	$(BIN)/ruff check .
 	@$(BIN)/mypy > $(VENV)/mypy.log 2>&1 & types=$$!; \
 	MPLBACKEND=Agg OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 $(BIN)/python -m pytest -q -n 2 \
-	  --dist loadgroup --durations=20 | tee $(VENV)/pytest.log; tests=$${PIPESTATUS[0]}; \
+	  --dist loadfile --durations=20 | tee $(VENV)/pytest.log; tests=$${PIPESTATUS[0]}; \
 	wait $$types; typed=$$?; echo "== mypy"; cat $(VENV)/mypy.log; \
 	echo "== pytest"; tail -n 1 $(VENV)/pytest.log; \
 	[ $$tests -eq 0 ] && [ $$typed -eq 0 ]

@@ -2,6 +2,10 @@
 
 from __future__ import annotations
 
+import functools
+from pathlib import Path
+from typing import Any
+
 import pytest
 
 from brake_env.model.atlas import Atlas, AtlasSpec
@@ -42,11 +46,37 @@ def local_ray():
     runner.__exit__()
 
 
+@functools.cache
+def _uses_ray(path: Path) -> bool:
+    """Whether a test file uses the session's local Ray. Read from its text: the xdist
+    controller, which schedules, sees the tests' node ids but not their fixtures."""
+    return "local_ray" in path.read_text()
+
+
 def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
-    """For ``pytest -n 2 --dist loadgroup`` (make test): whole files per worker (their
-    module fixtures built once), and every file that uses the local Ray on one worker, so
-    that one Ray is started, not one per worker."""
-    uses_ray = {item.path for item in items if "local_ray" in getattr(item, "fixturenames", ())}
-    for item in items:
-        group = "ray" if item.path in uses_ray else str(item.path)
-        item.add_marker(pytest.mark.xdist_group(group))
+    """For ``pytest -n 2 --dist loadfile`` (make test), the longest work first: the files
+    that use Ray (one unit of work, see below), then the files with a test marked slow,
+    then the rest in their usual order. A long file started last would keep one worker
+    busy after the other has finished."""
+    slow = {item.path for item in items if item.get_closest_marker("slow")}
+    items.sort(key=lambda item: 0 if _uses_ray(item.path) else 1 if item.path in slow else 2)
+
+
+@pytest.hookimpl(tryfirst=True, optionalhook=True)
+def pytest_xdist_make_scheduler(config: pytest.Config, log: Any) -> Any:
+    """``--dist loadfile``: whole files per worker (their module fixtures built once), in
+    the order collected, and every file that uses the local Ray on the same worker, so
+    that one Ray is started, not one per worker. (pytest-xdist's ``xdist_group`` marks
+    do not work with pytest 9: xdist 3.8 renames ``item._nodeid``, which pytest 9 no
+    longer reads, so every test was scheduled on its own.)"""
+    if config.getvalue("dist") != "loadfile":
+        return None
+    from xdist.scheduler import LoadScopeScheduling
+
+    class FilesRayTogether(LoadScopeScheduling):
+        def _split_scope(self, nodeid: str) -> str:
+            file = nodeid.split("::", 1)[0]
+            return "ray" if _uses_ray(config.rootpath / file) else file
+
+    config.option.loadscopereorder = False  # the collection's order: longest work first
+    return FilesRayTogether(config, log)

@@ -48,6 +48,7 @@ def test_simulate_same_seed_same_output(tmp_path) -> None:
     assert sa == sb
 
 
+@pytest.mark.slow
 def test_atlas_command_and_demo(tmp_path, monkeypatch) -> None:
     import agents.commands.cli
     import agents.fleet.commands.cli
