@@ -44,20 +44,10 @@ class BatchView:
         return self.to_window == 0
 
 
-def limits(p: FleetRuleParams, v: BatchView) -> F64:
-    """:meth:`FleetRuleParams.limits` over the batch."""
-    shop = p.must if p.shop_limit is None else max(p.must, p.shop_limit)
-    limit = np.where(v.down, shop, p.must)
-    if v.window:
-        win = p.must if p.window_limit is None else p.window_limit
-        limit = np.maximum(limit, win)
-    return limit
-
-
 def act(p: FleetRuleParams, config: FleetConfig, v: BatchView) -> tuple[I64, I64]:
     """The rule's duties (batch, n) and orders (batch,) (``FleetRule.act``)."""
     allowed = (v.stock > 0)[:, None] & (v.down | v.window | (v.free_bays > 0)[:, None])
-    want = (v.rul < limits(p, v)) & allowed
+    want = (v.rul < p.limits(v)) & allowed
     send, unserved = _greedy(config, v, want) if p.greedy else (want, np.zeros_like(want))
     duty = _duties(p, config, v, send, unserved)
     position = v.stock + v.transit - send.sum(axis=1)

@@ -35,7 +35,7 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass
-from typing import Any, Literal
+from typing import Any, Literal, Protocol
 
 import numpy as np
 from numpy.typing import NDArray
@@ -48,6 +48,16 @@ from brake_env.env.fleet.spares import reorder  # the rule's one home, re-export
 I64 = NDArray[np.int64]
 DUTIES = ("roster", "rul", "due-first")
 SPARE_DUTIES = {"mild": MILD, "park": PARK}
+
+
+class ShopState(Protocol):
+    """What the replacement limits read: who is in the shop, and whether it is a window."""
+
+    @property
+    def down(self) -> NDArray[np.bool_]: ...
+
+    @property
+    def window(self) -> bool: ...
 
 
 @dataclass(frozen=True)
@@ -90,8 +100,9 @@ class FleetRuleParams:
         if not 0 <= self.s <= self.S:
             raise ValueError(f"FleetRuleParams: need 0 <= s <= S, got s={self.s}, S={self.S}")
 
-    def limits(self, view: FleetView) -> NDArray[np.float64]:
-        """Each vehicle's replacement limit this shift."""
+    def limits(self, view: ShopState) -> NDArray[np.float64]:
+        """Each vehicle's replacement limit this shift (one state, or a batch of them:
+        ``view.down`` of any shape)."""
         shop = self.must if self.shop_limit is None else max(self.must, self.shop_limit)
         limit = np.where(view.down, shop, self.must)
         if view.window:
