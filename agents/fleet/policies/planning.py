@@ -72,9 +72,6 @@ class FleetState:
         arrays = {f.name: getattr(self, f.name)[rows] for f in fields(self) if f.name != "shift"}
         return FleetState(**arrays, shift=self.shift)
 
-    def copy(self) -> FleetState:
-        return self.take(np.arange(self.size))
-
     def free_bays(self, bays: int) -> I64:
         """Bays left for visits after the vehicles down, per future."""
         return np.maximum(bays - (self.down > 0).sum(axis=1), 0)

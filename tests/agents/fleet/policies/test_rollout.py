@@ -172,3 +172,19 @@ def test_rollout_keeps_a_pad_off_the_ramp_that_the_base_would_fail(small_rollout
     assert base.act(FleetView.read(obs, base.layout))[0] == HOT
     a = RolloutPolicy(base, model, horizon=10, samples=8).act(obs)
     assert a[0] in (PARK, SERVICE, MILD) and a[0] != HOT
+
+
+def test_the_program_value_reads_the_relaxed_program_at_the_window_phase():
+    """ProgramValue: each vehicle's V[shift mod W, ceil(h units), d], summed per future."""
+    from agents.fleet.policies.lagrangian import BoundModel, Prices, solve
+    from agents.fleet.policies.planning import ProgramValue
+
+    cfg = FleetConfig(n_vehicles=2, hot_need=1, mild_need=1, episode_shifts=8, window_period=3)
+    m = BoundModel(cfg, units=2, mild_units=1, new_prob=np.array([0, 0, 0, 0.3, 0, 0.7]))
+    program = solve(m, Prices.zeros(cfg))
+    value = ProgramValue.of(m, program)
+    h = np.array([[0.2, 2.0], [1.0, 0.0]])  # hot shifts: units ceil(0.4)=1, 4; 2, 0
+    down = np.array([[0, 1], [0, 0]])
+    got = value(h, down, shift=7)  # 7 mod 3 = 1
+    v = program.values[1]
+    np.testing.assert_allclose(got, [v[1, 0] + v[4, 1], v[2, 0] + v[0, 0]])
