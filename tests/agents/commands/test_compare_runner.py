@@ -25,7 +25,7 @@ from brake_env.env.config import EnvConfig
 from brake_env.prognostics.protocol import NoPrognostics, Oracle
 from brake_env.runner import Runner, UnitStore
 from tests.agents.budgets import FAST, TINY
-from tests.agents.commands.test_train_compare import tiny_config
+from tests.agents.commands.test_train_compare import check_tiny_costs, tiny_config
 
 ROOT = Path(__file__).resolve().parents[3]
 
@@ -91,14 +91,16 @@ def without_timing(costs: dict) -> dict:
 
 
 def test_costs_are_the_same_in_this_process_and_on_ray(atlas, tmp_path, local_ray):
+    """The tiny comparison, well formed (:func:`check_tiny_costs`) and the same both ways."""
     config = tiny_config()  # an oracle agent trained for 256 steps, with a learning curve
     costs = {}
     for where, runner in (("here", Runner(0)), ("ray", Runner(workers=2))):
         with runner:
             assert runner.on_ray == (where == "ray")
-            compare_and_report(config, atlas, tmp_path / where, 0, runner, quiet=True,
-                               hyperparams={"oracle": TINY})  # fmt: skip
+            returned = compare_and_report(config, atlas, tmp_path / where, 0, runner,
+                                          quiet=True, hyperparams={"oracle": TINY})  # fmt: skip
         costs[where] = json.loads((tmp_path / where / "costs.json").read_text())
+        check_tiny_costs(costs[where], returned, tmp_path / where)
     assert without_timing(costs["here"]) == without_timing(costs["ray"])
     assert "oracle/ppo" in costs["ray"]["policies"] and costs["ray"]["learning_curves"]["oracle"]
     # The agent the driver wrote from the Ray task's result is the one trained here.
@@ -141,7 +143,7 @@ def compare(out: Path, *extra: str) -> subprocess.Popen[str]:
     )
 
 
-def test_a_killed_compare_resumes_to_the_same_costs(tmp_path):
+def test_a_killed_compare_resumes_to_the_same_costs(tmp_path, capsys):
     """SIGKILL once the first unit is saved; the rerun redoes only what was not, and writes
     what a run never interrupted writes."""
     whole = compare(tmp_path / "whole")  # meanwhile: the reference
@@ -163,13 +165,19 @@ def test_a_killed_compare_resumes_to_the_same_costs(tmp_path):
     assert whole.communicate()[0] and whole.returncode == 0
     costs = [json.loads((tmp_path / d / "costs.json").read_text()) for d in ("whole", "run")]
     assert without_timing(costs[0]) == without_timing(costs[1])
-    # Another seed into the same folder is refused before any work, naming what differs.
-    other = compare(tmp_path / "run", "--seed", "1")
-    _, err = other.communicate()
-    assert other.returncode != 0 and "seed: 0 -> 1" in err, err
+    # Another seed into the same folder is refused before any work, naming what differs
+    # (in this process: the refusal needs no fifth interpreter).
+    from brake_env.cli.main import main
+
+    before = sorted(p.name for p in units.iterdir())
+    assert main(["compare", "--out", str(tmp_path / "run"), *COMPARE, "--seed", "1"]) == 2
+    assert "seed: 0 -> 1" in capsys.readouterr().err
+    assert sorted(p.name for p in units.iterdir()) == before
 
 
 def test_brakewear_train_writes_the_same_agent_from_ray(tmp_path, local_ray):
+    """``brakewear train`` writes its curve, held-out table and figure, the same in this
+    process and on Ray."""
     from brake_env.cli.main import main
 
     hp = tmp_path / "tiny.toml"
@@ -182,6 +190,9 @@ def test_brakewear_train_writes_the_same_agent_from_ray(tmp_path, local_ray):
               "--eval-pads", "2", "--k-mean", "1e-5", "--episode-events", "30000",
               "--workers", workers])  # fmt: skip
         ev = json.loads((out / "evaluation.json").read_text())
+        assert ev["pads"] == {"curve": 3, "held_out": 6} and ev["learning_curve"]
+        assert {"oracle/ppo", "oracle", "replace-on-failure"} <= set(ev["policies"])
+        assert (out / "figures" / "learning_curve.png").stat().st_size > 0
         del ev["train_seconds"]
         ev["learning_curve"] = [{**p, "seconds": 0} for p in ev["learning_curve"]]
         evaluations.append(ev)

@@ -54,9 +54,10 @@ def test_atlas_command_and_demo(tmp_path, monkeypatch) -> None:
     import agents.fleet.commands.cli
     import sim2real.commands.demo
 
-    # The comparison's, the fleet's and the diagnosis' stages at tiny budgets, in this
-    # process (the first two have tests of their own: test_train_compare.py,
-    # fleet/study/test_run.py; here the demo runs every stage into one report).
+    # Every stage at tiny budgets, in this process, into one report: this is the stages'
+    # demo test (their commands have tests of their own: test_train_compare.py,
+    # fleet/study/test_run.py; the prognostics' stage on data the twin can fit:
+    # prognostics/commands/test_evaluate.py).
     tiny = {"heuristics": ("threshold",), "shifts": 20, "trials": 1, "episodes": 2}
     monkeypatch.setattr(agents.fleet.commands.cli, "DEMO_FLEET", tiny)
     monkeypatch.setattr(agents.fleet.commands.cli, "DEMO_WORKERS", 0)
@@ -76,6 +77,12 @@ def test_atlas_command_and_demo(tmp_path, monkeypatch) -> None:
     for section in ("## Prognostics", "## Maintenance cost by predictor", "## Sim-to-real gap"):
         assert section in report
     assert "Verdict: **speed_friction**" in report  # the withheld effect is named
+    demo = tmp_path / "demo"
+    # The comparison: its table, and the agent it was given no budget to train named.
+    assert "not trained" in report and "| policy |" in report
+    # The fleet: its table without agents, and a ranking of the predictors.
+    assert "no agent" in report and "| predictor |" in report
+    assert json.loads((demo / "fleet" / "costs.json").read_text())["ranking"]["order"]
 
 
 def test_bad_arguments_are_named(tmp_path, capsys) -> None:

@@ -3,7 +3,6 @@ summary and its figures), and the agents' aggregate over training seeds."""
 
 from __future__ import annotations
 
-import argparse
 import dataclasses
 import json
 
@@ -19,7 +18,6 @@ from agents.fleet.study.plots import SHOP, trace_episode
 from agents.fleet.study.run import run_fleet_study
 from agents.fleet.study.summary import REFERENCE
 from brake_env.runner import Runner
-from tests.agents.budgets import ARGS
 
 TINY_TRAINING = FleetTraining(timesteps=64, n_envs=1, n_steps=64, batch_size=32, n_epochs=1,
                               net_arch=(16,), imitation_episodes=1, imitation_epochs=2)  # fmt: skip
@@ -183,21 +181,6 @@ def test_the_cli_names_a_bad_heuristic_and_the_settings_name_the_tuning_s(capsys
     assert FleetStudyConfig().predictors == predictor_names()
     with pytest.raises(ValueError, match="predictors must be among"):
         FleetStudyConfig(predictors=())
-
-
-def test_the_demo_stage_runs_on_a_tiny_budget(atlas, tmp_path, monkeypatch):
-    import agents.fleet.commands.cli as cli
-    from brake_env.cli.demo import DemoContext
-
-    tiny = {"heuristics": ("threshold",), "shifts": 20, "trials": 1, "episodes": 2}
-    monkeypatch.setattr(cli, "DEMO_FLEET", tiny)
-    monkeypatch.setattr(cli, "DEMO_PREDICTORS", ("none", "oracle"))
-    monkeypatch.setattr(cli, "DEMO_WORKERS", 0)
-    args = argparse.Namespace(**vars(ARGS), n_train=2, k_mean=1e-5, k_std=None, ood_shift_sigma=6.0)
-    ctx = DemoContext(args, tmp_path / "demo", tmp_path / "atlas.npz", tmp_path / "data")
-    summary, section = cli.demo_stage(ctx)
-    assert "no agent" in section and "| predictor |" in section
-    assert summary["ranking"]["order"] and (tmp_path / "demo" / "fleet" / "costs.json").exists()
 
 
 def test_fleet_room_reads_the_study_s_episodes(study):
