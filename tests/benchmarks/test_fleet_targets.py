@@ -70,3 +70,20 @@ def test_the_shared_agent_is_reported_not_judged():
     assert [r[-1] for r in got] == ["met", "reported", "reported", "reported", "met"]
     assert got[1][0] == "shared PPO (twin's RUL) against the tuned (n, N)"
     assert got[3][0] == "gap to the reference: twin / shared PPO (IQM)"
+
+
+def test_against_the_oracle_the_twin_is_reported_and_the_oracle_must_not_lose():
+    s = summary(iv(0.85, 0.8, 0.9), iv(-3, -4, -2))
+    s["ranking"]["head_minus"]["oracle"] = {"difference": iv(-0.5, -0.9, -0.1),
+                                            "ratio": iv(0.9, 0.8, 0.98)}  # fmt: skip
+    s["best_heuristic"] = {"twin": "(n, N)", "oracle": "(n, N)"}
+    twin = [3.0, 3.2, 2.9, 3.1]
+    s["rows"][0]["episodes"] = {"cost": twin}
+    s["rows"].append({"predictor": "oracle", "policy": "(n, N)",
+                      "episodes": {"cost": [c + 0.5 for c in twin]}})  # fmt: skip
+    got = ft.rows(s)[1:]
+    assert got[3][0] == "twin's best policy against oracle's best" and got[3][-1] == "reported"
+    assert got[-1][0].startswith("the oracle's best heuristic no worse than twin's")
+    assert got[-1][-1] == "MISSED"  # the twin's is cheaper on every episode
+    s["rows"][-1]["episodes"]["cost"] = [c - 0.5 for c in twin]
+    assert ft.rows(s)[-1][-1] == "met"
