@@ -3,6 +3,7 @@ resumed from its saved cases, a failing case named."""
 
 from __future__ import annotations
 
+import functools
 import json
 import os
 import signal
@@ -156,9 +157,15 @@ def test_a_killed_run_resumes_to_the_uninterrupted_result(
         proc.wait()
     assert len(_saved_units(out / "units")) == 1 and not (out / "validation.json").exists()
 
-    rerun = subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=240)
-    assert rerun.returncode == 0, rerun.stderr
-    assert "validate-gap: resuming: 1 of 2 cases already done" in rerun.stderr
+    # The rerun in this process (the same TINY settings as the driver's): it resumes.
+    import sim2real.commands.cli
+
+    capsys.readouterr()
+    with pytest.MonkeyPatch.context() as m:
+        tiny_spec = functools.partial(ValidationSpec, config=TINY)
+        m.setattr(sim2real.commands.cli, "ValidationSpec", tiny_spec)
+        assert main([*CLI, "--out", str(out)]) == 0
+    assert "validate-gap: resuming: 1 of 2 cases already done" in capsys.readouterr().err
     result = json.loads((out / "validation.json").read_text())
     assert _as_json(result) == _as_json(reference[0])
     assert (result["settings"]["workers"], result["settings"]["ray"]) == (0, None)
