@@ -26,6 +26,11 @@ apart from the evaluation (0..), tuning (10,000..) and curve (20,000..) seeds.""
 SIZES = ("small", "default")
 # The heuristics of agents.fleet.evaluation.tuning.SPACES, in its order (tested equal), so
 # that the settings and the parser need not import the tuning (Optuna, scipy).
+# What the heuristics are tuned on, their best chosen on and the predictors ranked by:
+# the headline cost per vehicle-shift, or the net cost (less the pad life left at the end;
+# agents.fleet.evaluation.costs.figures).
+Objective = Literal["cost", "net"]
+OBJECTIVES: tuple[Objective, ...] = ("cost", "net")
 HEURISTICS = ("threshold", "time-to-window", "(n, N)", "capacity greedy", "duty rule",
               "(s, S)", "standby", "best combination")  # fmt: skip
 DEFAULT_HEURISTICS = ("threshold", "(n, N)", "best combination")
@@ -145,6 +150,9 @@ class FleetStudyConfig:
         rollout_chunk: Evaluation episodes per rollout unit.
         bound_iterations: Price vectors the Lagrangian bound's search tries (0: no bound);
             with the bound, the price-directed policy runs on the evaluation episodes too.
+        objective: What the heuristics are tuned on, the best heuristic is chosen on, the
+            predictors are ranked by and the rollout is compared with its base on:
+            ``cost`` (the headline) or ``net`` (:data:`OBJECTIVES`). Every row reports both.
     """
 
     size: Literal["small", "default"] = "small"
@@ -169,6 +177,7 @@ class FleetStudyConfig:
     rollout_samples: int = 16
     rollout_chunk: int = 5
     bound_iterations: int = 0
+    objective: Objective = "cost"
 
     def __post_init__(self) -> None:
         if self.size not in SIZES:
@@ -204,6 +213,10 @@ class FleetStudyConfig:
             raise ValueError(f"FleetStudyConfig: agent_seeds, shared_seeds and bound_iterations"
                              f" must be >= 0, got {self.agent_seeds}, {self.shared_seeds} and"
                              f" {self.bound_iterations}")  # fmt: skip
+        if self.objective not in OBJECTIVES:
+            raise ValueError(
+                f"FleetStudyConfig: objective must be one of {OBJECTIVES}, got {self.objective!r}"
+            )
         if self.eval_episodes < 2:
             raise ValueError(
                 f"FleetStudyConfig: eval_episodes must be >= 2 (paired intervals),"
@@ -233,7 +246,7 @@ class FleetStudyConfig:
         each unit's own parameters are in its key."""
         return {"size": self.size, "shifts": self.shifts, "eval_episodes": self.eval_episodes,
                 "tune_episodes": self.tune_episodes, "n_train_runs": self.n_train_runs,
-                "seed": self.seed}  # fmt: skip
+                "seed": self.seed, "objective": self.objective}  # fmt: skip
 
     def trials_of(self, heuristic: str) -> int:
         return self.trials_best if heuristic == "best combination" else self.trials

@@ -82,7 +82,7 @@ def config_from_args(args: argparse.Namespace) -> FleetStudyConfig:
         curve_episodes=args.curve_episodes, curve_every=args.curve_every, tail=args.tail,
         seed=args.seed, rollout_predictors=args.rollout, rollout_horizon=args.rollout_horizon,
         rollout_samples=args.rollout_samples, rollout_chunk=args.rollout_chunk,
-        bound_iterations=args.bound_iterations,
+        bound_iterations=args.bound_iterations, objective=args.objective,
     )  # fmt: skip
 
 

@@ -8,7 +8,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from agents.fleet.settings import DEFAULT_HEURISTICS, HEURISTICS, SIZES
+from agents.fleet.settings import DEFAULT_HEURISTICS, HEURISTICS, OBJECTIVES, SIZES
 from brake_env.cli.common import (
     NONNEGATIVE,
     POSITIVE,
@@ -43,6 +43,11 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
     f.add_argument("--trials", type=int_at_least(1), default=15, help="Optuna, per heuristic")
     f.add_argument("--trials-best", type=int_at_least(1), default=45, help="the combination's")
     f.add_argument("--tune-episodes", type=int_at_least(1), default=3)
+    f.add_argument(
+        "--objective", choices=OBJECTIVES, default="cost",
+        help="what the heuristics are tuned on and the predictors ranked by: the headline"
+        " cost or the net cost (less the pad life left at the end)",
+    )  # fmt: skip
     f.add_argument("--eval-episodes", type=int_at_least(2), default=40)
     f.add_argument("--n-train-runs", type=int_at_least(1), default=10, help="pads to fit on")
     f.add_argument(

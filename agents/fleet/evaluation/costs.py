@@ -23,6 +23,7 @@ from numpy.typing import NDArray
 from scipy.stats import DegenerateDataWarning, bootstrap, trim_mean
 
 from agents.fleet.policies.view import respects
+from agents.fleet.settings import OBJECTIVES, Objective
 from brake_env.env.fleet.config import COST_TERMS
 from brake_env.env.fleet.routes import HOT, route_wear_model
 
@@ -140,9 +141,20 @@ def run_episodes(
     return [run_episode(env, policy, int(s), check_masks) for s in seeds]
 
 
-def evaluate(env: Any, policy: Any, seeds: Sequence[int], check_masks: bool = False) -> F64:
-    """Cost per vehicle-shift (:attr:`EpisodeCost.per_vehicle_shift`) on each seed."""
-    return np.array([e.per_vehicle_shift for e in run_episodes(env, policy, seeds, check_masks)])
+def figures(eps: Sequence[EpisodeCost], objective: Objective = "cost") -> F64:
+    """Each episode's ``cost`` (:attr:`EpisodeCost.per_vehicle_shift`, the headline) or
+    ``net`` (:attr:`EpisodeCost.net`: less the pad life left at the end)."""
+    if objective not in OBJECTIVES:
+        raise ValueError(f"objective must be one of {OBJECTIVES}, got {objective!r}")
+    return np.array([e.net if objective == "net" else e.per_vehicle_shift for e in eps])
+
+
+def evaluate(
+    env: Any, policy: Any, seeds: Sequence[int], check_masks: bool = False,
+    objective: Objective = "cost",
+) -> F64:  # fmt: skip
+    """:func:`figures` of ``policy``'s episodes on ``seeds``."""
+    return figures(run_episodes(env, policy, seeds, check_masks), objective)
 
 
 @dataclass(frozen=True)

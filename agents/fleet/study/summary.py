@@ -20,11 +20,12 @@ from numpy.typing import NDArray
 from agents.fleet.evaluation.costs import (
     EpisodeCost,
     Interval,
+    figures,
     paired_interval,
     seeds_interval,
     term_means,
 )
-from agents.fleet.settings import FleetStudyConfig
+from agents.fleet.settings import FleetStudyConfig, Objective
 from agents.fleet.study.build import episodes_of
 from agents.fleet.study.planners import BOUND, PRICED
 from agents.fleet.study.units import best_heuristic
@@ -68,7 +69,8 @@ def summarise(
             runs = [units[config.agent_key(p, s, kind)] for s in range(n)]
             label = p if kind == "central" else f"{p}, shared"
             agents[label] = _agents(runs, best[p], eps[(p, best[p])], ref=ref,
-                                    n_resamples=n_resamples)  # fmt: skip
+                                    n_resamples=n_resamples,
+                                    objective=config.objective)  # fmt: skip
     out: dict[str, Any] = {
         "config": _config_dict(config),
         "rows": rows,
@@ -94,7 +96,7 @@ def _planners(
         chunks = [units[config.rollout_key(p, i)] for i in range(len(config.rollout_chunks()))]
         got = [e for c in chunks for e in episodes_of(c["episodes"])]
         rows.append(_row(p, chunks[0]["policy"], got, ref, None))
-        x, base = costs(got), costs(eps[(p, best[p])])
+        x, base = figures(got, config.objective), figures(eps[(p, best[p])], config.objective)
         seconds = sum(float(c["seconds"]) for c in chunks)
         out["rollout"][p] = {
             "base": best[p], "cost": float(x.mean()), "base_cost": float(base.mean()),
@@ -153,20 +155,26 @@ def _row(
 def _ranking(
     config: FleetStudyConfig, eps: dict[tuple[str, str], list[EpisodeCost]], best: dict[str, str]
 ) -> dict[str, Any]:
-    """Each predictor's best heuristic's cost, and the twin's (or the first predictor's)
-    difference from every other predictor's best (paired over episodes)."""
-    order = sorted(config.predictors, key=lambda p: costs(eps[(p, best[p])]).mean())
+    """Each predictor's best heuristic's cost (``config.objective``'s figure), and the
+    twin's (or the first predictor's) difference from every other predictor's best (paired
+    over episodes)."""
+
+    def fig(p: str) -> F64:
+        return figures(eps[(p, best[p])], config.objective)
+
+    order = sorted(config.predictors, key=lambda p: fig(p).mean())
     head = "twin" if "twin" in config.predictors else order[0]
-    h = costs(eps[(head, best[head])])
+    h = fig(head)
     against = {}
     for p in config.predictors:
         if p != head:
-            o = costs(eps[(p, best[p])])
+            o = fig(p)
             against[p] = {"difference": _iv(paired_interval(h, o, "difference")),
                           "ratio": _iv(paired_interval(h, o, "ratio"))}  # fmt: skip
     return {
         "order": order,
-        "cost": {p: float(costs(eps[(p, best[p])]).mean()) for p in config.predictors},
+        "objective": config.objective,
+        "cost": {p: float(fig(p).mean()) for p in config.predictors},
         "head": head,
         "head_minus": against,
     }
@@ -174,12 +182,12 @@ def _ranking(
 
 def _agents(
     runs: list[dict[str, Any]], heuristic_name: str, heuristic: list[EpisodeCost], *,
-    ref: list[EpisodeCost] | None, n_resamples: int,
+    ref: list[EpisodeCost] | None, n_resamples: int, objective: Objective = "cost",
 ) -> dict[str, Any]:  # fmt: skip
     """One kind of agent with one predictor's RUL over its training seeds (``runs``),
-    against that predictor's best heuristic and the reference."""
-    per_seed = np.stack([costs(episodes_of(r["episodes"])) for r in runs])
-    h = costs(heuristic)
+    against that predictor's best heuristic and the reference (on ``objective``'s figure)."""
+    per_seed = np.stack([figures(episodes_of(r["episodes"]), objective) for r in runs])
+    h = figures(heuristic, objective)
     vs = seeds_interval(per_seed, h, n_resamples=n_resamples)
     out: dict[str, Any] = {
         "predictor": runs[0]["predictor"],
@@ -201,7 +209,7 @@ def _agents(
     }  # fmt: skip
     if ref is not None:
         out["ratio_to_reference"] = _iv(
-            seeds_interval(per_seed, costs(ref), n_resamples=n_resamples)["ratio"]
+            seeds_interval(per_seed, figures(ref, objective), n_resamples=n_resamples)["ratio"]
         )
     return out
 

@@ -223,7 +223,8 @@ def heuristic_unit(
     t0 = time.perf_counter()
     env = rul_env(config, atlas, predictor, fitted)
     tuned = tune(heuristic, env, layout(config), config.tune_seeds(),
-                 config.trials_of(heuristic), sampler_seed=config.seed)  # fmt: skip
+                 config.trials_of(heuristic), sampler_seed=config.seed,
+                 objective=config.objective)  # fmt: skip
     t1 = time.perf_counter()
     eps = run_episodes(env, tuned.rule, config.eval_seeds(), check_masks=True)
     return {

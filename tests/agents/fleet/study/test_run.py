@@ -183,6 +183,31 @@ def test_the_cli_names_a_bad_heuristic_and_the_settings_name_the_tuning_s(capsys
         FleetStudyConfig(predictors=())
 
 
+def test_the_ranking_is_on_the_study_s_objective():
+    """With ``objective="net"`` the predictors are ranked by their best heuristics' net
+    cost (less the life left), which here reverses the headline order."""
+    from agents.fleet.evaluation.costs import EpisodeCost
+    from agents.fleet.study.summary import _ranking
+
+    def eps(cost: float, left: float) -> list[EpisodeCost]:  # one vehicle, one shift
+        terms = {"pad": 0.0, "labour": cost}
+        return [EpisodeCost(s, 1, 1, {**terms, "labour": cost + 0.1 * s}, {}, 0.0, left)
+                for s in range(4)]  # fmt: skip
+
+    got = {("twin", "threshold"): eps(10.0, 6.0), ("oracle", "threshold"): eps(8.0, 1.0)}
+    best = {"twin": "threshold", "oracle": "threshold"}
+    config = dataclasses.replace(TINY, predictors=("twin", "oracle"), agent_predictors=(),
+                                 rollout_predictors=())  # fmt: skip
+    gross = _ranking(config, got, best)
+    assert gross["order"] == ["oracle", "twin"] and gross["objective"] == "cost"
+    net = _ranking(dataclasses.replace(config, objective="net"), got, best)
+    assert net["order"] == ["twin", "oracle"] and net["objective"] == "net"
+    assert net["cost"]["twin"] == pytest.approx(10.15 - 6.0)
+    assert net["head_minus"]["oracle"]["difference"]["point"] == pytest.approx(4.0 - 7.0)
+    with pytest.raises(ValueError, match="objective must be one of"):
+        FleetStudyConfig(objective="gross")  # type: ignore[arg-type]
+
+
 def test_fleet_room_reads_the_study_s_episodes(study):
     """benchmarks/fleet_room.py pairs the rows' episodes itself: its gaps equal the study's,
     and the reference's forecast is there to check against its realised cost."""
