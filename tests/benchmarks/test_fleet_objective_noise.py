@@ -1,0 +1,24 @@
+"""benchmarks/fleet_objective_noise.py on a made-up fleet ``costs.json``."""
+
+from __future__ import annotations
+
+import importlib.util
+import sys
+from pathlib import Path
+
+SCRIPT = Path(__file__).resolve().parents[2] / "benchmarks" / "fleet_objective_noise.py"
+
+
+def test_each_row_s_spread_and_the_episodes_a_tuning_run_needs():
+    spec = importlib.util.spec_from_file_location("fleet_objective_noise", SCRIPT)
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module
+    spec.loader.exec_module(module)
+    episodes = {"cost": [2.0, 4.0, 3.0, 5.0], "net": [2.0, 2.1, 1.9, 2.0]}
+    s = {"rows": [{"predictor": "oracle", "policy": "rule", "episodes": episodes}]}
+    _head, cost, net = module.rows(s)
+    assert cost[:2] == ["oracle / rule", "cost"] and net[1] == "net"
+    assert cost[2:6] == ["3.500", "1.291", "2.00", "5.00"]  # sd with ddof=1: sqrt(5/3)
+    assert cost[6] == "667"  # ceil(var / SE^2) = ceil((5 / 3) / 0.0025)
+    assert float(net[3]) < float(cost[3]) and int(net[6]) < int(cost[6])
