@@ -157,8 +157,17 @@ def study_graph(config: FleetStudyConfig, runner: Runner, atlas: Any) -> list[Un
         k = config.agent_key(p, s, kind)
         return Unit(k, agent_unit, (config, atlas, fitted(p, r), job), w[k])
 
+    # A fit weighs what waits on it, so that it starts before any ready unit lighter than
+    # that (with weight 1 it ran last: two predictors' tuning waited for ten rollouts).
+    def waiting(p: str) -> float:
+        keys = [*h_keys(p), *(config.agent_key(q, s, kind) for kind, q, s in config.agent_runs()
+                              if q == p)]  # fmt: skip
+        if p in config.rollout_predictors:
+            keys += [config.rollout_key(p, i) for i in range(len(config.rollout_chunks()))]
+        return sum(w[k] for k in keys)
+
     nodes: list[Unit | Later] = [
-        Unit(f"fit-{p}", fit_unit, (p, atlas, config.seed, config.n_train_runs))
+        Unit(f"fit-{p}", fit_unit, (p, atlas, config.seed, config.n_train_runs), waiting(p))
         for p in config.predictors if p != ORACLE
     ]  # fmt: skip
     nodes += [Later(config.heuristic_key(p, h), fit_of(p), partial(heuristic, p=p, h=h))

@@ -183,6 +183,26 @@ def test_the_cli_names_a_bad_heuristic_and_the_settings_name_the_tuning_s(capsys
         FleetStudyConfig(predictors=())
 
 
+def test_a_fit_starts_before_the_units_lighter_than_what_waits_on_it():
+    """The graph starts the heaviest ready unit first, and a fit weighs what waits on it:
+    at the default fleet's settings the twin's fit goes before the oracle's rollout units
+    (which are ready as soon as the oracle's tuning is done)."""
+    from agents.fleet.study.units import study_graph, weights
+
+    config = dataclasses.replace(
+        TINY, size="default", shifts=365, predictors=("twin", "oracle"),
+        heuristics=("best combination",), trials_best=60, tune_episodes=6, eval_episodes=20,
+        agent_predictors=(), shared_seeds=0, rollout_predictors=("oracle", "twin"),
+    )  # fmt: skip
+    w = weights(config)
+    fit = next(n for n in study_graph(config, Runner(0), None) if n.key == "fit-twin")
+    mine = [config.heuristic_key("twin", "best combination")]
+    mine += [config.rollout_key("twin", i) for i in range(len(config.rollout_chunks()))]
+    assert fit.weight == pytest.approx(sum(w[k] for k in mine))
+    oracle_rollouts = [w[config.rollout_key("oracle", i)] for i in range(10)]
+    assert fit.weight > max(oracle_rollouts) > 1.0
+
+
 def test_the_ranking_is_on_the_study_s_objective():
     """With ``objective="net"`` the predictors are ranked by their best heuristics' net
     cost (less the life left), which here reverses the headline order."""
