@@ -120,7 +120,8 @@ def planner_rows(s: dict[str, Any]) -> list[list[str]]:
     b = s.get("bound")
     if not b:
         return out
-    best = min(s["rows"], key=lambda r: r["cost"])
+    # the bound is on the net cost: the best policy is the row of least net cost
+    best = min((r for r in s["rows"] if "ratio_to_bound" in r), key=lambda r: r["net_cost"])
     ratio = best["ratio_to_bound"]
     out.append([f"bracket: best policy ({best['predictor']} / {best['policy']}) within"
                 f" {BRACKET:.0%} of the bound ({b['cost']:.3f})", f"ratio {_iv(ratio)}",

@@ -87,3 +87,18 @@ def test_against_the_oracle_the_twin_is_reported_and_the_oracle_must_not_lose():
     assert got[-1][-1] == "MISSED"  # the twin's is cheaper on every episode
     s["rows"][-1]["episodes"]["cost"] = [c - 0.5 for c in twin]
     assert ft.rows(s)[-1][-1] == "met"
+
+
+def test_the_bracket_takes_the_row_of_least_net_cost():
+    """The bound is on the net cost: the best policy is the one of least net cost, even
+    where another row's headline cost is lower."""
+    s = {"rows": [
+        {"predictor": "oracle", "policy": "a", "cost": 3.0, "net_cost": 2.5,
+         "ratio_to_bound": iv(1.6, 1.5, 1.7), "gap_to_bound": iv(1, 0.9, 1.1)},
+        {"predictor": "oracle", "policy": "b", "cost": 3.2, "net_cost": 2.1,
+         "ratio_to_bound": iv(1.03, 1.01, 1.06), "gap_to_bound": iv(0.1, 0.0, 0.2)},
+    ], "bound": {"cost": 2.0}, "best_heuristic": {"oracle": "a"}}  # fmt: skip
+    bracket = ft.planner_rows(s)[0]
+    assert "oracle / b" in bracket[0] and bracket[-1] == "met"
+    s["rows"][1]["ratio_to_bound"] = iv(1.3, 1.2, 1.4)
+    assert ft.planner_rows(s)[0][-1] == "MISSED"
