@@ -184,6 +184,7 @@ class TwinGrid:
         k_mean = (w @ self.k_grid[lo:hi]) / z
         rul = (w @ life) / z - n_after
         rul += (w[:, tail:] * over).sum(axis=1) / z  # K whose life ended: RUL 0, not < 0
+        np.maximum(rul, 0.0, out=rul)  # once every K's life is over the sum rounds to ~-1e-11
         q = (1.0 - self.interval_level) / 2.0
         life_lo, life_med, life_hi = self.wear.life(
             np.exp(self._log_quantiles(w, z, np.array([q, 0.5, 1.0 - q]), lo))

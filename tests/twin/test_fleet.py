@@ -271,3 +271,20 @@ def _concat(parts: list[EventBatch]) -> EventBatch:
 
 def _last_of_runs(p: NDArray[np.intp]) -> NDArray[np.bool_]:
     return np.r_[p[1:] != p[:-1], True]
+
+
+def test_a_pad_past_every_likely_life_has_rul_zero_inside_its_interval(
+    fitted: DigitalTwin,
+) -> None:
+    """When the posterior weighs only K whose life is over, the mean RUL is 0, not a
+    rounding error below it (it came out -1.5e-11 with lower bound 0 in a fleet study, and
+    the fleet wrapper refused the inverted interval), and the interval holds it."""
+    g = fitted.fleet(1).grid
+    rng = np.random.default_rng(0)
+    m = 40  # the posterior on the 40 largest K (shortest lives); the others weigh 0
+    post = np.full((200, g.log_prior.size), -1e4)
+    post[:, -m:] = rng.normal(0.0, 2.0, (200, m))
+    n_after = rng.uniform(g.life[-m], g.life[-m - 1], 200)  # past each of those lives
+    rul, lower, upper, _, _ = g.summarise(post, 0, n_after)
+    assert (rul >= 0.0).all() and (rul < 1e-6).all()  # 0 up to rounding, never below
+    assert (lower <= rul).all() and (rul <= upper).all()
