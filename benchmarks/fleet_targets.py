@@ -94,13 +94,14 @@ def oracle_rows(s: dict[str, Any]) -> list[list[str]]:
     best = s.get("best_heuristic", {})
     if ORACLE not in best:
         return []
-    cost = {(r["predictor"], r["policy"]): r["episodes"]["cost"] for r in s["rows"]}
+    figure = s.get("ranking", {}).get("objective", "cost")  # the study's: cost or net
+    cost = {(r["predictor"], r["policy"]): r["episodes"][figure] for r in s["rows"]}
     oracle = cost[(ORACLE, best[ORACLE])]
     out = []
     for p, h in best.items():
         if p != ORACLE:
             d = paired_interval(cost[(p, h)], oracle, "difference")
-            out.append([f"the oracle's best heuristic no worse than {p}'s ({p} minus it)",
+            out.append([f"the oracle's best heuristic no worse than {p}'s ({p} minus it, {figure})",
                         f"difference {d.point:.3f} [{d.low:.3f}, {d.high:.3f}]",
                         _verdict(d.high >= 0)])  # fmt: skip
     return out

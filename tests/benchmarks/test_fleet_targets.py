@@ -87,6 +87,12 @@ def test_against_the_oracle_the_twin_is_reported_and_the_oracle_must_not_lose():
     assert got[-1][-1] == "MISSED"  # the twin's is cheaper on every episode
     s["rows"][-1]["episodes"]["cost"] = [c - 0.5 for c in twin]
     assert ft.rows(s)[-1][-1] == "met"
+    # a study ranked on the net cost is judged on the net cost
+    s["ranking"]["objective"] = "net"
+    s["rows"][0]["episodes"]["net"] = [c - 1 for c in twin]
+    s["rows"][-1]["episodes"]["net"] = [c - 0.5 for c in twin]
+    got = ft.rows(s)[-1]
+    assert got[0].endswith("(twin minus it, net)") and got[-1] == "MISSED"
 
 
 def test_the_bracket_takes_the_row_of_least_net_cost():
