@@ -35,9 +35,10 @@ for name in sys.argv[1:]:
         mod = importlib.import_module(name)
     except ImportError:  # an optional library not installed: nothing to warm
         continue
-    for info in pkgutil.walk_packages(getattr(mod, "__path__", []), name + "."):
-        if name in {PACKAGES}:
-            importlib.import_module(info.name)
+    if name not in {PACKAGES}:  # a library: what it imports itself, not every submodule
+        continue
+    for info in pkgutil.walk_packages(mod.__path__, name + "."):
+        importlib.import_module(info.name)
 """
 
 
