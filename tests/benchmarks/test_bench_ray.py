@@ -3,19 +3,14 @@
 
 from __future__ import annotations
 
-import importlib.util
 import json
-import sys
 from pathlib import Path
 
 import pytest
 
-SCRIPT = Path(__file__).resolve().parents[2] / "benchmarks" / "bench_ray.py"
-spec = importlib.util.spec_from_file_location("bench_ray", SCRIPT)
-assert spec is not None and spec.loader is not None
-bench_ray = importlib.util.module_from_spec(spec)
-sys.modules[spec.name] = bench_ray
-spec.loader.exec_module(bench_ray)
+from tests.benchmarks import load_script
+
+bench_ray = load_script("bench_ray")
 
 
 def _unit(path: Path, result: object) -> None:

@@ -3,27 +3,13 @@ passes and where it fails, and the script's printout."""
 
 from __future__ import annotations
 
-import importlib.util
 import json
-import sys
-from pathlib import Path
-from types import ModuleType
 
 import pytest
 
-SCRIPT = Path(__file__).resolve().parents[2] / "benchmarks" / "cost_targets.py"
+from tests.benchmarks import load_script
 
-
-def _load() -> ModuleType:
-    spec = importlib.util.spec_from_file_location("cost_targets", SCRIPT)
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module  # dataclasses look their module up
-    spec.loader.exec_module(module)
-    return module
-
-
-ct = _load()
+ct = load_script("cost_targets")
 
 
 def est(value: float, low: float, high: float) -> dict[str, float]:

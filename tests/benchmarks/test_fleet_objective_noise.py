@@ -2,19 +2,11 @@
 
 from __future__ import annotations
 
-import importlib.util
-import sys
-from pathlib import Path
-
-SCRIPT = Path(__file__).resolve().parents[2] / "benchmarks" / "fleet_objective_noise.py"
+from tests.benchmarks import load_script
 
 
 def test_each_row_s_spread_and_the_episodes_a_tuning_run_needs():
-    spec = importlib.util.spec_from_file_location("fleet_objective_noise", SCRIPT)
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module
-    spec.loader.exec_module(module)
+    module = load_script("fleet_objective_noise")
     episodes = {"cost": [2.0, 4.0, 3.0, 5.0], "net": [2.0, 2.1, 1.9, 2.0]}
     s = {"rows": [{"predictor": "oracle", "policy": "rule", "episodes": episodes}]}
     _head, cost, net = module.rows(s)

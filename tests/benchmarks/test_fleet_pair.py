@@ -2,23 +2,12 @@
 
 from __future__ import annotations
 
-import importlib.util
 import json
-import sys
 from pathlib import Path
 
 import pytest
 
-SCRIPT = Path(__file__).resolve().parents[2] / "benchmarks" / "fleet_pair.py"
-
-
-def _load():
-    spec = importlib.util.spec_from_file_location("fleet_pair", SCRIPT)
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module
-    spec.loader.exec_module(module)
-    return module
+from tests.benchmarks import load_script
 
 
 def _study(path: Path, policy: str, cost: list[float], seeds: list[int]) -> str:
@@ -29,7 +18,7 @@ def _study(path: Path, policy: str, cost: list[float], seeds: list[int]) -> str:
 
 
 def test_two_studies_are_paired_episode_by_episode_or_refused(tmp_path):
-    fp = _load()
+    fp = load_script("fleet_pair")
     a = _study(tmp_path / "a.json", "x", [3.0, 2.0, 4.0], [0, 1, 2])
     b = _study(tmp_path / "b.json", "y", [3.5, 2.5, 4.5], [0, 1, 2])
     got = fp.compare((a, "oracle/x"), (b, "oracle/y"))

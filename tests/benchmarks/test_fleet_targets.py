@@ -3,25 +3,11 @@ where it passes and where it fails."""
 
 from __future__ import annotations
 
-import importlib.util
-import sys
-from pathlib import Path
-from types import ModuleType
 from typing import Any
 
-SCRIPT = Path(__file__).resolve().parents[2] / "benchmarks" / "fleet_targets.py"
+from tests.benchmarks import load_script
 
-
-def _load() -> ModuleType:
-    spec = importlib.util.spec_from_file_location("fleet_targets", SCRIPT)
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module
-    spec.loader.exec_module(module)
-    return module
-
-
-ft = _load()
+ft = load_script("fleet_targets")
 
 
 def iv(point: float, low: float, high: float) -> dict[str, float]:
