@@ -3,7 +3,8 @@ them, they import nothing of the package): :class:`FleetTraining` (an agent's tr
 :class:`FleetStudyConfig` (what ``brakewear fleet-study`` runs) and the episode seeds.
 
 Episode seeds: evaluation 0..E-1, tuning from 10,000, learning curves from 20,000, agent
-training from 30,000 + 100 x seed, the teachers' episodes of behaviour cloning from
+training from 30,000 + 100 x seed, the rollout planner's labels for its distillation from
+500,000, the teachers' episodes of behaviour cloning from
 ``IMITATION_SEED0 * (seed + 1)``; none overlaps another. Predictors come from the registry
 (:mod:`brake_env.prognostics.registry`), heuristics by the names of
 :data:`agents.fleet.evaluation.tuning.SPACES` (``HEURISTICS`` here, tested equal).
@@ -21,6 +22,8 @@ from brake_env.prognostics.registry import predictor_names
 
 TUNE_SEED0, CURVE_SEED0, TRAIN_SEED0 = 10_000, 20_000, 30_000
 IMITATION_SEED0 = 1_000_000
+LABEL_SEED0 = 500_000
+"""The distilled planner's labelled episodes: ``LABEL_SEED0 + 1000 x round + k``."""
 """The teacher's episode seeds: ``IMITATION_SEED0 * (settings.seed + 1) + k`` for episode k,
 apart from the evaluation (0..), tuning (10,000..) and curve (20,000..) seeds."""
 SIZES = ("small", "default")
@@ -63,6 +66,11 @@ class FleetTraining:
             ``imitation_episodes`` more episodes, the teacher labels its states, and the
             policy is refitted on all the data (the clone's own mistakes lead to states
             the teacher never visits, e.g. a pad near failure).
+        cover_needs: Cover each shift's needs from idle vehicles after the agent's duties
+            (:func:`~agents.fleet.learning.agent.cover_needs`), in training and when it acts.
+        vehicle_net: One network shared by the vehicles, each reading its own values, the
+            fleet's and its rank (:mod:`~agents.fleet.learning.vehicle_net`; ``net_arch[-1]``
+            units a layer); needs ``reorder``.
     """
 
     timesteps: int = 200_000
@@ -84,6 +92,8 @@ class FleetTraining:
     imitation_lr: float = 1e-3
     imitation_value: bool = True
     imitation_rounds: int = 0
+    cover_needs: bool = False
+    vehicle_net: bool = False
 
     def __post_init__(self) -> None:
         for name in ("n_envs", "n_steps", "batch_size", "n_epochs", "imitation_epochs"):
@@ -223,6 +233,20 @@ class FleetStudyConfig:
                 f" got {self.eval_episodes}"
             )
 
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> FleetStudyConfig:
+        """The config a study wrote (``costs.json``'s ``config``: :func:`dataclasses.asdict`
+        with the derived ``fleet``)."""
+        d = {k: v for k, v in d.items() if k != "fleet"}
+        tr = dict(d.get("training", {}))
+        if "net_arch" in tr:
+            tr["net_arch"] = tuple(tr["net_arch"])
+        if tr.get("reorder") is not None:
+            tr["reorder"] = tuple(tr["reorder"])
+        tuples = ("predictors", "heuristics", "agent_predictors", "rollout_predictors")
+        return cls(**{**d, **{k: tuple(d[k]) for k in tuples if k in d},
+                      "training": FleetTraining(**tr)})  # fmt: skip
+
     @property
     def fleet(self) -> FleetConfig:
         small: dict[str, Any] = dict(SMALL_FLEET) if self.size == "small" else {}
@@ -284,3 +308,57 @@ class FleetStudyConfig:
         digest = hashlib.sha256(json.dumps(spec, sort_keys=True).encode()).hexdigest()[:10]
         prefix = "agent" if kind == "central" else f"agent-{kind}"
         return f"{prefix}-{predictor}-seed{seed}-{digest}"
+
+
+@dataclass(frozen=True)
+class DistilConfig:
+    """What ``brakewear fleet-distil`` runs on a finished study: the rollout planner on the
+    predictor's best tuned heuristic labels shifts once (DAgger, shared by every seed), then
+    each training seed clones the labels and optionally fine-tunes by PPO.
+
+    Attributes:
+        predictor: Whose RUL the planner and the policy read (one of the study's).
+        seeds: Training seeds.
+        label_episodes: Episodes labelled per round.
+        label_rounds: DAgger rounds after the planner's own episodes: a clone of every
+            label so far (fitted from ``LABEL_SEED0``) drives, the planner labels.
+        label_chunk: Episodes per labelling unit.
+        training: Each seed's cloning (``imitation_*``, ``net_arch``, ``batch_size``) and
+            PPO after it (``timesteps``, 0: the clone alone); its ``reorder`` is set from the
+            base rule's (s, S), the planner's own order rule.
+    """
+
+    predictor: str = "twin"
+    seeds: int = 10
+    label_episodes: int = 16
+    label_rounds: int = 2
+    label_chunk: int = 8
+    training: FleetTraining = field(
+        default_factory=lambda: FleetTraining(
+            timesteps=0, imitation_episodes=1, imitation_epochs=40, imitation_lr=3e-3,
+            batch_size=128, normalize_reward=True, cover_needs=True, vehicle_net=True,
+            net_arch=(128, 128),
+        )
+    )  # fmt: skip
+
+    def __post_init__(self) -> None:
+        for name in ("seeds", "label_episodes", "label_chunk"):
+            if int(getattr(self, name)) < 1:
+                raise ValueError(f"DistilConfig: {name} must be >= 1, got {getattr(self, name)}")
+        if not 0 <= self.label_rounds < 1000 or self.label_episodes >= 1000:
+            raise ValueError(f"DistilConfig: label_rounds must be in [0, 1000) and"
+                             f" label_episodes < 1000, got {self.label_rounds} and"
+                             f" {self.label_episodes}")  # fmt: skip
+
+    def label_seeds(self, round_: int) -> list[int]:
+        return [LABEL_SEED0 + 1000 * round_ + k for k in range(self.label_episodes)]
+
+    def label_chunks(self, round_: int) -> list[list[int]]:
+        seeds, k = self.label_seeds(round_), self.label_chunk
+        return [seeds[i : i + k] for i in range(0, len(seeds), k)]
+
+    def digest(self) -> str:
+        """What the labels depend on besides the study (the labelling clone's training)."""
+        spec = {"rounds": self.label_rounds, "episodes": self.label_episodes,
+                "training": asdict(self.training)}  # fmt: skip
+        return hashlib.sha256(json.dumps(spec, sort_keys=True).encode()).hexdigest()[:10]

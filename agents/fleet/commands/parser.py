@@ -59,6 +59,7 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
     add_runner_args(f, workers=2)
     f.add_argument("--atlas", default=None, help="atlas .npz instead of the cache")
     f.set_defaults(func="agents.fleet.commands.cli:cmd_fleet_study")
+    _register_distil(sub)
 
 
 def _add_planner_args(f: argparse.ArgumentParser) -> None:
@@ -118,3 +119,38 @@ def _add_agent_args(f: argparse.ArgumentParser) -> None:
     f.add_argument(
         "--curve-episodes", type=int_at_least(1), default=2, help="episodes of each curve point"
     )
+
+
+def _register_distil(sub: argparse._SubParsersAction[Any]) -> None:
+    """Add ``fleet-distil``: a finished study's rollout planner distilled into a policy."""
+    f = sub.add_parser(
+        "fleet-distil",
+        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
+        help="distil a fleet study's rollout planner into a central MaskablePPO (DAgger"
+        " labels shared by the training seeds), compared on the study's episodes",
+    )  # fmt: skip
+    add_common_args(f, "out/fleet-distil")
+    f.add_argument("--study", required=True, help="a finished fleet-study's --out")
+    f.add_argument(
+        "--predictor", choices=predictor_names(), default="twin",
+        help="whose RUL the planner and the policy read (the study must have tuned it)",
+    )  # fmt: skip
+    f.add_argument("--seeds", type=int_at_least(1), default=10, help="training seeds")
+    f.add_argument("--label-episodes", type=int_at_least(1), default=16, help="per round")
+    f.add_argument(
+        "--label-rounds", type=int_at_least(0), default=2,
+        help="DAgger rounds after the planner's own episodes (a clone drives, it labels)",
+    )  # fmt: skip
+    f.add_argument(
+        "--label-chunk", type=int_at_least(1), default=8,
+        help="episodes a unit (each unit of a DAgger round refits the round's clone)",
+    )  # fmt: skip
+    f.add_argument("--timesteps", type=int_at_least(0), default=0, help="PPO after cloning")
+    f.add_argument("--imitation-epochs", type=int_at_least(1), default=40)
+    f.add_argument("--imitation-lr", type=POSITIVE, default=3e-3, help="Adam's, for the cloning")
+    f.add_argument("--learning-rate", type=POSITIVE, default=1e-4, help="PPO's")
+    f.add_argument("--ent-coef", type=NONNEGATIVE, default=0.0, help="PPO's entropy coefficient")
+    f.add_argument("--n-envs", type=int_at_least(1), default=4, help="PPO's parallel envs")
+    add_runner_args(f, workers=2)
+    f.add_argument("--atlas", default=None, help="atlas .npz instead of the cache")
+    f.set_defaults(func="agents.fleet.commands.distil:cmd_fleet_distil")

@@ -228,26 +228,52 @@ def seeds_interval(
         per_seed: (seeds, episodes) costs of the agent trained from each seed.
         baseline: (episodes,) costs of the baseline on the same episodes.
     """
-    x, b = np.asarray(per_seed, dtype=np.float64), np.asarray(baseline, dtype=np.float64)
-    if x.ndim != 2 or b.shape != x.shape[1:] or x.shape[0] < 1 or b.size < 2:
+    point, agent, (base,) = _two_level(per_seed, [baseline], n_resamples, seed)
+    b = float(np.mean(baseline))
+    return {
+        "iqm": _percentile(point, agent, level),
+        "difference": _percentile(point - b, agent - base, level),
+        "ratio": _percentile(point / b, agent / base, level),
+    }
+
+
+def gap_closed(
+    per_seed: F64, base: F64, better: F64, level: float = 0.95, n_resamples: int = 4000,
+    seed: int = 0,
+) -> Interval:  # fmt: skip
+    """The fraction of the gap from ``base`` down to ``better`` (two policies' (episodes,)
+    costs) that the agent's IQM closes: ``(base - agent) / (base - better)``, 1 at
+    ``better``'s cost, 0 at ``base``'s, negative above it; the same two-level bootstrap as
+    :func:`seeds_interval`, the three paired on episodes; nan where the two policies' means
+    are equal (no gap)."""
+    point, agent, (b, w) = _two_level(per_seed, [base, better], n_resamples, seed)
+    mb, mw = float(np.mean(base)), float(np.mean(better))
+    if mb == mw:  # no gap to close
+        return Interval(float("nan"), float("nan"), float("nan"), level)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return _percentile((mb - point) / (mb - mw), (b - agent) / (b - w), level)
+
+
+def _two_level(
+    per_seed: F64, baselines: list[F64], n_resamples: int, seed: int
+) -> tuple[float, F64, list[F64]]:
+    """The agent's IQM, and its and the baselines' means over ``n_resamples`` two-level
+    resamples (seeds with replacement, then episodes, one episode draw for all)."""
+    x = np.asarray(per_seed, dtype=np.float64)
+    bs = [np.asarray(b, dtype=np.float64) for b in baselines]
+    if x.ndim != 2 or x.shape[0] < 1 or any(b.shape != x.shape[1:] or b.size < 2 for b in bs):
         raise ValueError(f"seeds_interval: need (seeds, episodes) and (episodes,), got"
-                         f" {x.shape} and {b.shape}")  # fmt: skip
+                         f" {x.shape} and {[b.shape for b in bs]}")  # fmt: skip
     rng = np.random.default_rng(seed)
     n_s, n_e = x.shape
     pick_e = rng.integers(0, n_e, (n_resamples, n_e))
     pick_s = rng.integers(0, n_s, (n_resamples, n_s))
     seed_means = x[:, pick_e].mean(axis=-1)  # (seeds, resamples)
     agent = iqm(np.take_along_axis(seed_means.T, pick_s, axis=1), axis=1)
-    base = b[pick_e].mean(axis=-1)
+    return float(iqm(x.mean(axis=1))), agent, [b[pick_e].mean(axis=-1) for b in bs]
+
+
+def _percentile(point: float, draws: F64, level: float) -> Interval:
     a = (1 - level) / 2 * 100
-
-    def interval(point: float, draws: F64) -> Interval:
-        lo, hi = np.percentile(draws, [a, 100 - a])
-        return Interval(point, float(lo), float(hi), level)
-
-    point = float(iqm(x.mean(axis=1)))
-    return {
-        "iqm": interval(point, agent),
-        "difference": interval(point - float(b.mean()), agent - base),
-        "ratio": interval(point / float(b.mean()), agent / base),
-    }
+    lo, hi = np.percentile(draws, [a, 100 - a])
+    return Interval(point, float(lo), float(hi), level)

@@ -24,23 +24,31 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from typing import Any
+from dataclasses import replace
+from typing import Any, SupportsFloat
 
 import gymnasium as gym
 import numpy as np
 from numpy.typing import NDArray
 
-from agents.fleet.learning.imitation import Imitation, clone
+from agents.fleet.learning.imitation import (
+    Demonstrations,
+    Imitation,
+    clone,
+    discounted_returns,
+    imitate,
+)
 from agents.fleet.policies.rules import reorder
 from agents.fleet.policies.view import FleetLayout, FleetView
 from agents.fleet.settings import FleetTraining
 from brake_env.env.fleet.config import FleetConfig
 from brake_env.env.fleet.env import BrakeWearFleetEnv
-from brake_env.env.fleet.shop import SERVICE
+from brake_env.env.fleet.shop import HOT, MILD, PARK, SERVICE
 from brake_env.env.fleet.wrappers import ExpectedRULObservation
 from brake_env.model.atlas import Atlas
 
 F32 = NDArray[np.float32]
+I64 = NDArray[np.int64]
 
 
 def oracle_fleet_env(config: FleetConfig, atlas: Atlas | None = None) -> gym.Env[Any, Any]:
@@ -76,6 +84,64 @@ class ReorderBy(gym.ActionWrapper[Any, NDArray[np.int64], NDArray[np.int64]]):
         return self.env.unwrapped.action_masks()[: 4 * self.n]  # type: ignore[attr-defined]
 
 
+def cover_needs(config: FleetConfig, duty: I64, view: FleetView, min_rul: float = 1.0) -> I64:
+    """The duties with the shift's needs covered from idle vehicles: while the hot route is
+    short of ``hot_need``, the parked vehicle able to drive with the most hot-route life
+    (at least ``min_rul`` shifts) joins it; then the mild route likewise (a vehicle on the
+    ramp beyond its need covers a drift). Nothing else changes: no vehicle leaves a route
+    or the shop, so a policy that already covers the needs, as every tuned rule and the
+    rollout planner do, acts unchanged (checked on the planner's labels). A policy that
+    decides each vehicle's duty on its own cannot count the vehicles the others send; a
+    shift short of a truck costs 2,000 and a wasted spare vehicle would cover it."""
+    duty = np.array(duty, dtype=np.int64)
+    if view.window:
+        return duty
+    idle = np.flatnonzero((duty == PARK) & ~view.down & (view.rul >= min_rul))
+    idle = idle[np.argsort(-view.rul[idle], kind="stable")]
+    hot = int((duty == HOT).sum())
+    k = max(config.hot_need - hot, 0)
+    duty[idle[:k]] = HOT
+    hot, idle = hot + len(idle[:k]), idle[k:]
+    k = max(config.mild_need - int((duty == MILD).sum()) - max(hot - config.hot_need, 0), 0)
+    duty[idle[:k]] = MILD
+    return duty
+
+
+class CoverNeeds(gym.ActionWrapper[Any, NDArray[np.int64], NDArray[np.int64]]):
+    """The agent's duties with the needs covered (:func:`cover_needs`), read from the last
+    observation as ``layout`` says.
+
+    Args:
+        env: BrakeWearFleet-v0 with the RUL ``layout`` describes.
+        layout: Where the RUL is in the observation.
+    """
+
+    def __init__(self, env: gym.Env[Any, NDArray[np.int64]], layout: FleetLayout) -> None:
+        super().__init__(env)
+        self.layout = layout
+        self._view: FleetView | None = None
+
+    def reset(self, **kwargs: Any) -> tuple[Any, dict[str, Any]]:
+        obs, info = self.env.reset(**kwargs)
+        self._view = FleetView.read(obs, self.layout)
+        return obs, info
+
+    def step(
+        self, action: NDArray[np.int64]
+    ) -> tuple[Any, SupportsFloat, bool, bool, dict[str, Any]]:
+        obs, reward, terminated, truncated, info = super().step(action)
+        self._view = FleetView.read(obs, self.layout)
+        return obs, reward, terminated, truncated, info
+
+    def action(self, action: NDArray[np.int64]) -> NDArray[np.int64]:
+        if self._view is None:
+            raise RuntimeError("CoverNeeds: step before reset")
+        a = np.array(action, dtype=np.int64)
+        n = self.layout.n_vehicles
+        a[:n] = cover_needs(self.layout.config, a[:n], self._view)
+        return a
+
+
 class FrozenAgent:
     """A trained MaskablePPO and its observation statistics, frozen at the end of training
     (SB3's ``VecNormalize``: ``(obs - mean) / sqrt(var + 1e-8)``, clipped).
@@ -104,14 +170,15 @@ class FleetAgent(FrozenAgent):
     Args:
         model, layout, obs_mean, obs_var, clip: As :class:`FrozenAgent`'s.
         reorder: The (s, S) it was trained with (:class:`ReorderBy`), if any.
+        cover: Whether its duties go through :func:`cover_needs` (as in training).
     """
 
     def __init__(
         self, model: Any, layout: FleetLayout, obs_mean: F32, obs_var: F32, clip: float = 10.0,
-        reorder: tuple[int, int] | None = None,
+        reorder: tuple[int, int] | None = None, cover: bool = False,
     ) -> None:  # fmt: skip
         super().__init__(model, layout, obs_mean, obs_var, clip)
-        self.reorder = reorder
+        self.reorder, self.cover = reorder, cover
         self.name = "MaskablePPO"
 
     def predict(
@@ -130,6 +197,10 @@ class FleetAgent(FrozenAgent):
             self.normalize(obs), action_masks=mask, deterministic=deterministic
         )
         action = np.asarray(action, dtype=np.int64)
+        if self.cover:
+            n = self.layout.n_vehicles
+            action = np.concatenate([cover_needs(self.layout.config, action[:n], view),
+                                     action[n:]])  # fmt: skip
         if self.reorder is not None:
             fits = int((action == SERVICE).sum())
             s, S = self.reorder
@@ -164,11 +235,10 @@ def train_fleet_agent(
     on all the data; then PPO fine-tunes for ``settings.timesteps`` (none if 0). The
     agent's ``imitation`` says how the cloning went.
     """
-    from sb3_contrib import MaskablePPO  # heavy optional dependencies (the fleet extra)
-    from sb3_contrib.common.wrappers import ActionMasker
-    from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
-
     s = settings
+    if s.vehicle_net:
+        raise ValueError("train_fleet_agent: vehicle_net needs pooled statistics; train it"
+                         " with train_on_labels")  # fmt: skip
     if (teacher is None) != (s.imitation_episodes == 0):
         raise ValueError(
             "train_fleet_agent: a teacher needs settings.imitation_episodes > 0 and"
@@ -176,9 +246,28 @@ def train_fleet_agent(
             f" episodes, teacher {teacher!r})"
         )
     t0 = time.perf_counter()
+    model, venv = build_model(make_env, s, layout)
+    imitation = None if teacher is None else clone(model, venv, teacher, s, t0)
+    return _finish(model, venv, layout, s, callback, imitation)
+
+
+def build_model(
+    make_env: Callable[[], gym.Env[Any, Any]], settings: FleetTraining, layout: FleetLayout
+) -> tuple[Any, Any]:
+    """MaskablePPO on ``settings.n_envs`` training copies of ``make_env()`` (each masked by
+    its base env's :meth:`action_masks`, rewards scaled, spares by ``settings.reorder`` if
+    set, needs covered if ``settings.cover_needs``), under SB3's ``VecNormalize``: (model,
+    venv)."""
+    from sb3_contrib import MaskablePPO  # heavy optional dependencies (the fleet extra)
+    from sb3_contrib.common.wrappers import ActionMasker
+    from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
+
+    s = settings
 
     def one() -> gym.Env[Any, Any]:
         env = make_env()
+        if s.cover_needs:
+            env = CoverNeeds(env, layout)
         if s.reorder is not None:
             env = ReorderBy(env, *s.reorder)
         env = gym.wrappers.TransformReward(env, lambda r: float(r) * s.reward_scale)
@@ -186,17 +275,62 @@ def train_fleet_agent(
 
     envs = DummyVecEnv([one] * s.n_envs)
     venv = VecNormalize(envs, norm_obs=True, norm_reward=s.normalize_reward, gamma=s.gamma)
+    policy: Any = "MlpPolicy"
+    kwargs: dict[str, Any] = {"net_arch": list(s.net_arch)}
+    if s.vehicle_net:
+        from agents.fleet.learning.vehicle_net import VehicleLayout, VehiclePolicy
+
+        if s.reorder is None:
+            raise ValueError("build_model: vehicle_net decides duties only; set reorder")
+        policy = VehiclePolicy
+        kwargs = {"vehicles": VehicleLayout.of(layout), "hidden": s.net_arch[-1]}
     model = MaskablePPO(
-        "MlpPolicy", venv, learning_rate=s.learning_rate, n_steps=s.n_steps,
+        policy, venv, learning_rate=s.learning_rate, n_steps=s.n_steps,
         batch_size=s.batch_size, n_epochs=s.n_epochs, ent_coef=s.ent_coef, gamma=s.gamma,
-        clip_range=s.clip_range, policy_kwargs={"net_arch": list(s.net_arch)}, seed=s.seed,
-        verbose=0, device="cpu",
+        clip_range=s.clip_range, policy_kwargs=kwargs, seed=s.seed, verbose=0, device="cpu",
     )  # fmt: skip
-    imitation = None if teacher is None else clone(model, venv, teacher, s, t0)
+    return model, venv
+
+
+def train_on_labels(
+    make_env: Callable[[], gym.Env[Any, Any]], layout: FleetLayout, settings: FleetTraining,
+    labels: Demonstrations, callback: Any = None,
+) -> FleetAgent:  # fmt: skip
+    """MaskablePPO cloned from ``labels`` recorded once elsewhere (an expert's actions on
+    states that any actor reached, the env's rewards unscaled:
+    :func:`~agents.fleet.learning.imitation.record`), then
+    fine-tuned by PPO for ``settings.timesteps`` shifts (none if 0). The observation
+    statistics start from the labelled states; the cloning is ``settings``'
+    (``imitation_epochs``, ``imitation_lr``, ``imitation_value``) from ``settings.seed``, so
+    seeds differ in the network's start and the order of the minibatches only. With
+    ``settings.vehicle_net`` the observation statistics are pooled over vehicles and frozen
+    (:mod:`~agents.fleet.learning.vehicle_net`)."""
+    t0 = time.perf_counter()
+    model, venv = build_model(make_env, settings, layout)
+    labels = replace(labels, rewards=labels.rewards * settings.reward_scale)
+    venv.obs_rms.update(labels.obs)
+    if settings.vehicle_net:  # ranks compare vehicles: one scale per feature, kept in PPO
+        from agents.fleet.learning.vehicle_net import VehicleLayout, pool_vehicle_stats
+
+        pool_vehicle_stats(venv.obs_rms.mean, venv.obs_rms.var, VehicleLayout.of(layout))
+        venv.training = False
+    returns = discounted_returns(labels, settings.gamma, venv, settings.normalize_reward)
+    agreement, nll = imitate(model, venv, labels, returns, settings, settings.seed)
+    episodes = len(labels.starts)
+    done = Imitation(episodes, 0, len(labels.rewards), agreement, float("nan"), nll,
+                     time.perf_counter() - t0)  # fmt: skip
+    return _finish(model, venv, layout, settings, callback, done)
+
+
+def _finish(
+    model: Any, venv: Any, layout: FleetLayout, s: FleetTraining, callback: Any,
+    imitation: Imitation | None,
+) -> FleetAgent:  # fmt: skip
+    """PPO for ``s.timesteps`` shifts, then the agent with its statistics frozen."""
     if s.timesteps > 0:
         model.learn(total_timesteps=s.timesteps, callback=callback)
     rms: Any = venv.obs_rms  # one RunningMeanStd: the observation is a Box
     mean, var = rms.mean.astype(np.float32), rms.var.astype(np.float32)
-    agent = FleetAgent(model, layout, mean, var, reorder=s.reorder)
+    agent = FleetAgent(model, layout, mean, var, reorder=s.reorder, cover=s.cover_needs)
     agent.imitation = imitation
     return agent

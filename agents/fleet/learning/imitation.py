@@ -114,7 +114,7 @@ def record(
     )  # fmt: skip
 
 
-def _returns(
+def discounted_returns(
     demo: Demonstrations, gamma: float, venv: Any, normalize_reward: bool
 ) -> NDArray[np.float64]:
     """Discounted returns of the teacher's (normalised, if VecNormalize does) rewards; an
@@ -221,7 +221,7 @@ def clone(
     demo, returns, on_policy = None, np.zeros(0), float("nan")
     for r in range(s.imitation_rounds + 1):  # round 0: the teacher acts; then DAgger
         seed0 = IMITATION_SEED0 * (s.seed + 1) + r * k
-        fleet = _concat([
+        fleet = concat([
             record(envs[i], teacher, list(range(seed0 + i, seed0 + k, s.n_envs)),
                    s.reorder is not None, None if r == 0 else actor_for(envs[i]))
             for i in range(min(s.n_envs, k))
@@ -232,16 +232,17 @@ def clone(
             on_policy = float((new.taken == new.actions).all(axis=1).mean())
         venv.obs_rms.update(new.obs)  # statistics first: the policy sees them
         per_shift = len(new.rewards) // len(fleet.rewards)  # samples per fleet shift
-        ret = _returns(fleet, s.gamma, venv, s.normalize_reward)
+        ret = discounted_returns(fleet, s.gamma, venv, s.normalize_reward)
         returns = np.concatenate([returns, np.repeat(ret, per_shift)])
-        demo = new if demo is None else _concat([demo, new])
+        demo = new if demo is None else concat([demo, new])
         agreement, nll = imitate(model, venv, demo, returns, s, s.seed + r)
     assert demo is not None
     return Imitation(k, s.imitation_rounds, len(demo.rewards), agreement, on_policy, nll,
                      time.perf_counter() - t0)  # fmt: skip
 
 
-def _concat(parts: list[Demonstrations]) -> Demonstrations:
+def concat(parts: list[Demonstrations]) -> Demonstrations:
+    """Demonstrations one after another (episode starts re-indexed)."""
     offsets = np.cumsum([0] + [len(p.rewards) for p in parts[:-1]])
     return Demonstrations(
         np.concatenate([p.obs for p in parts]),

@@ -35,6 +35,7 @@ from agents.fleet.evaluation.costs import run_episodes
 from agents.fleet.evaluation.tuning import tune
 from agents.fleet.settings import TRAIN_SEED0, FleetStudyConfig
 from agents.fleet.study.build import episodes_dict, layout, rebuild_rule, rul_env
+from agents.fleet.study.curve import LearningCurve, mean_cost
 from agents.fleet.study.planners import bound_unit, rollout_unit
 from brake_env.model.atlas import Atlas
 from brake_env.model.regime import WearRegime
@@ -325,7 +326,7 @@ def _agent(
 
     clone = rule if settings.imitation_episodes > 0 else None
     if kind == "shared":  # SB3 counts a sample per vehicle; the curve counts shifts
-        curve = _Curve(config.curve_every, lambda m, mean, var: _mean_cost(
+        curve = LearningCurve(config.curve_every, lambda m, mean, var: mean_cost(
             curve_env, SharedFleetAgent(m, lay, mean, var, s=s, S=S), config),
             lay.n_vehicles)  # fmt: skip
         agent: Any = train_shared_agent(
@@ -333,7 +334,7 @@ def _agent(
         )
     else:
         reorder = settings.reorder
-        curve = _Curve(config.curve_every, lambda m, mean, var: _mean_cost(
+        curve = LearningCurve(config.curve_every, lambda m, mean, var: mean_cost(
             curve_env, FleetAgent(m, lay, mean, var, reorder=reorder), config))  # fmt: skip
         agent = train_fleet_agent(make_env, lay, settings, callback=curve.callback(), teacher=clone)
     train_s = time.perf_counter() - t0
@@ -355,46 +356,3 @@ def _imitation(agent: Any) -> dict[str, Any]:
     """How the cloning went (agreement with the teacher, seconds), if there was one."""
     done = getattr(agent, "imitation", None)
     return asdict(done) if done is not None else {}
-
-
-def _mean_cost(env: Any, agent: Any, config: FleetStudyConfig) -> float:
-    eps = run_episodes(env, agent, config.curve_seeds())
-    return float(np.mean([e.per_vehicle_shift for e in eps]))
-
-
-class _Curve:
-    """The learning curve: the agent's mean cost on the curve episodes at the start of PPO
-    (after any cloning) and every ``every`` shifts (an SB3 callback; ``cost(model,
-    obs_mean, obs_var)`` prices the agent the model is at that moment, with the env's
-    normalisation statistics of that moment). SB3 counts ``per_shift`` samples a shift."""
-
-    def __init__(self, every: int, cost: Any, per_shift: int = 1) -> None:
-        self.every, self.cost, self.per_shift = every * per_shift, cost, per_shift
-        self.points: list[tuple[int, float]] = []
-
-    def callback(self) -> Any:
-        from stable_baselines3.common.callbacks import BaseCallback
-
-        outer = self
-
-        class Curve(BaseCallback):
-            def __init__(self) -> None:
-                super().__init__()
-                self.next = outer.every
-
-            def _on_training_start(self) -> None:  # the cloned policy, before PPO
-                self._point()
-
-            def _on_step(self) -> bool:
-                if self.num_timesteps >= self.next:
-                    self._point()
-                    self.next += outer.every
-                return True
-
-            def _point(self) -> None:
-                rms: Any = self.model.get_env().obs_rms  # type: ignore[union-attr]
-                mean, var = rms.mean.astype(np.float32), rms.var.astype(np.float32)
-                shifts = self.num_timesteps // outer.per_shift
-                outer.points.append((shifts, outer.cost(self.model, mean, var)))
-
-        return Curve()

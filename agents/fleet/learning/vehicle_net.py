@@ -1,0 +1,157 @@
+"""A central fleet policy that decides each vehicle with one shared network (MaskablePPO's
+policy for ``FleetTraining(vehicle_net=True)``).
+
+A flat MLP over the fleet observation has to learn "a pad near its end goes to the shop at
+the window" once for every vehicle slot, from the few shifts where that slot's pad was
+near its end; twelve vehicles, twelve times the data. Here each vehicle is read by the
+same network (permutation-equivariant, as in Deep Sets): its own features and RUL, the
+fleet's features (shift, window, stock, bays), and where it stands in the fleet (the share
+of vehicles with less hot-route and less mild-route life, the ranking a dispatcher uses).
+A second layer sees the vehicle's first-layer features beside their mean over the fleet;
+one shared linear head gives its four duty logits. The critic pools the vehicles' features
+by their mean.
+
+The ranks compare vehicles, so the observation's statistics must be the same for every
+vehicle's copy of a feature: :func:`pool_vehicle_stats` pools them (SB3's
+``VecNormalize`` keeps one mean and variance per dimension).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import torch
+from numpy.typing import NDArray
+from sb3_contrib.common.maskable.policies import MaskableActorCriticPolicy
+from torch import nn
+
+from agents.fleet.policies.view import FleetLayout
+from brake_env.env.fleet.spaces import FLEET_FEATURES, N_VF
+
+
+@dataclass(frozen=True)
+class VehicleLayout:
+    """Where each vehicle's values are in the flat observation (plain ints, picklable).
+
+    Attributes:
+        n: Vehicles.
+        k: Values appended per vehicle (the RUL fields).
+        hot, mild: Columns of the hot- and mild-route RUL among the appended values.
+    """
+
+    n: int
+    k: int
+    hot: int
+    mild: int
+
+    @classmethod
+    def of(cls, layout: FleetLayout) -> VehicleLayout:
+        hot, mild = layout.column("hot", layout.rul_field), layout.column("mild", layout.rul_field)
+        assert hot is not None, "the layout has no hot-route RUL"
+        return cls(layout.n_vehicles, layout.per_vehicle, hot, hot if mild is None else mild)
+
+    @property
+    def nf(self) -> int:
+        return len(FLEET_FEATURES)
+
+    def split(self, x: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+        """(vehicle features (B, n, N_VF), fleet features (B, nf), appended (B, n, k))."""
+        a, b = self.n * N_VF, self.n * N_VF + self.nf
+        return (x[:, :a].reshape(-1, self.n, N_VF), x[:, a:b],
+                x[:, b:].reshape(-1, self.n, self.k))  # fmt: skip
+
+
+def _share_below(x: torch.Tensor) -> torch.Tensor:
+    """(B, n) -> the share of the other vehicles with a smaller value, in [0, 1]."""
+    n = x.shape[1]
+    return (x[:, :, None] > x[:, None, :]).sum(-1).to(x.dtype) / max(n - 1, 1)
+
+
+class VehicleExtractor(nn.Module):
+    """SB3's ``mlp_extractor`` for the fleet: latent_pi (B, n x hidden), latent_vf (B, hidden)."""
+
+    def __init__(self, lay: VehicleLayout, hidden: int) -> None:
+        super().__init__()
+        self.lay, self.hidden = lay, hidden
+        d = N_VF + lay.k + lay.nf + 2
+
+        def net() -> nn.ModuleList:
+            first = nn.Sequential(nn.Linear(d, hidden), nn.Tanh())
+            return nn.ModuleList([first, nn.Sequential(nn.Linear(2 * hidden, hidden), nn.Tanh())])
+
+        self.pi, self.vf = net(), net()
+        self.latent_dim_pi, self.latent_dim_vf = lay.n * hidden, hidden
+
+    def _vehicles(self, x: torch.Tensor, layers: nn.ModuleList) -> torch.Tensor:
+        own, fleet, app = self.lay.split(x)
+        ranks = torch.stack([_share_below(app[..., self.lay.hot]),
+                             _share_below(app[..., self.lay.mild])], dim=-1)  # fmt: skip
+        fleet = fleet[:, None, :].expand(-1, self.lay.n, -1)
+        h = layers[0](torch.cat([own, app, fleet, ranks], dim=-1))
+        return layers[1](torch.cat([h, h.mean(dim=1, keepdim=True).expand_as(h)], dim=-1))
+
+    def forward_actor(self, x: torch.Tensor) -> torch.Tensor:
+        return self._vehicles(x, self.pi).flatten(1)
+
+    def forward_critic(self, x: torch.Tensor) -> torch.Tensor:
+        return self._vehicles(x, self.vf).mean(dim=1)
+
+    def forward(self, x: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        return self.forward_actor(x), self.forward_critic(x)
+
+
+class VehicleHead(nn.Module):
+    """Each vehicle's ``actions`` logits from its latent, by one shared linear layer."""
+
+    def __init__(self, n: int, hidden: int, actions: int) -> None:
+        super().__init__()
+        self.n, self.hidden = n, hidden
+        self.linear = nn.Linear(hidden, actions)
+
+    def forward(self, latent: torch.Tensor) -> torch.Tensor:
+        return self.linear(latent.reshape(-1, self.n, self.hidden)).flatten(1)
+
+
+class VehiclePolicy(MaskableActorCriticPolicy):
+    """MaskablePPO's policy with :class:`VehicleExtractor` and :class:`VehicleHead`; the
+    action space must be the duties alone (``FleetTraining.reorder`` set).
+
+    Args:
+        vehicles: Where each vehicle's values are.
+        hidden: Units of each layer.
+    """
+
+    def __init__(self, *args: Any, vehicles: VehicleLayout, hidden: int = 64, **kw: Any) -> None:
+        self.vehicles, self.hidden = vehicles, hidden
+        super().__init__(*args, **kw)
+
+    def _build_mlp_extractor(self) -> None:
+        self.mlp_extractor = VehicleExtractor(self.vehicles, self.hidden)  # type: ignore[assignment]
+
+    def _build(self, lr_schedule: Any) -> None:
+        super()._build(lr_schedule)
+        nvec = np.asarray(self.action_space.nvec)  # type: ignore[attr-defined]
+        if len(nvec) != self.vehicles.n or len(set(nvec.tolist())) != 1:
+            raise ValueError(f"VehiclePolicy: needs one duty per vehicle ({self.vehicles.n}),"
+                             f" got action dimensions {nvec.tolist()} (set reorder)")  # fmt: skip
+        self.action_net = VehicleHead(self.vehicles.n, self.hidden, int(nvec[0]))
+        self.action_net.apply(lambda m: self.init_weights(m, gain=0.01))
+        self.optimizer = self.optimizer_class(  # as SB3's _build makes it
+            self.parameters(),
+            lr=lr_schedule(1),
+            **self.optimizer_kwargs,  # type: ignore[call-arg]
+        )
+
+
+def pool_vehicle_stats(mean: NDArray[Any], var: NDArray[Any], lay: VehicleLayout) -> None:
+    """In place: every vehicle's copy of a feature gets the pooled mean and variance of all
+    copies (the mean of the means; the mean variance plus the variance of the means), so
+    that normalised values compare across vehicles."""
+    a, b = lay.n * N_VF, lay.n * N_VF + lay.nf
+    for lo, hi, width in ((0, a, N_VF), (b, len(mean), lay.k)):
+        m = mean[lo:hi].reshape(lay.n, width)
+        v = var[lo:hi].reshape(lay.n, width)
+        mean[lo:hi] = np.tile(m.mean(axis=0), lay.n)
+        var[lo:hi] = np.tile(v.mean(axis=0) + m.var(axis=0), lay.n)

@@ -1,0 +1,282 @@
+"""The rollout planner distilled into a central policy (issue 32, item 1), as units on a
+:class:`~brake_env.runner.Runner` on top of a finished fleet study (its settings, the
+predictor's best tuned heuristic, the planner's horizon and samples).
+
+**Labels, once for every seed** (:func:`label_unit`, ``label_chunk`` episodes a unit):
+round 0, the planner (:class:`~agents.fleet.policies.rollout.RolloutPolicy` on the tuned
+heuristic, the predictor's RUL with its interval) drives and labels its own shifts; in each
+DAgger round after it, a clone of every label so far (fitted from
+:data:`~agents.fleet.settings.LABEL_SEED0`, the same in every unit of the round) drives and
+the planner labels the states the clone reaches, where a clone's mistakes take the fleet.
+The planner's order is the base rule's (s, S) on its services, so the policy decides
+duties and the order is that rule's (:class:`~agents.fleet.learning.agent.ReorderBy`):
+the labels are exact.
+
+**Each training seed** (:func:`seed_unit`): MaskablePPO cloned from all the labels (masked
+cross-entropy, the value head on their discounted returns), PPO for
+``training.timesteps`` shifts if any (learning curve on the study's curve episodes), then
+the study's evaluation episodes, each decision timed.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Mapping
+from dataclasses import dataclass, replace
+from functools import partial
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from agents.fleet.evaluation.costs import run_episodes
+from agents.fleet.learning.agent import ReorderBy, train_on_labels
+from agents.fleet.learning.imitation import Demonstrations, concat, record
+from agents.fleet.policies.planning import PlanningModel
+from agents.fleet.policies.rollout import RolloutPolicy
+from agents.fleet.policies.view import FleetLayout
+from agents.fleet.settings import LABEL_SEED0, TRAIN_SEED0, DistilConfig, FleetStudyConfig
+from agents.fleet.study.build import episodes_dict, rul_env
+from agents.fleet.study.curve import LearningCurve, mean_cost
+from agents.fleet.study.planners import INTERVAL
+from brake_env.model.atlas import Atlas
+from brake_env.prognostics.protocol import Predictor
+from brake_env.prognostics.registry import ORACLE
+from brake_env.runner import Later, Runner, Unit
+from brake_env.units import open_store
+
+UNITS = "units"
+
+
+@dataclass(frozen=True)
+class Job:
+    """What every unit of one distillation shares.
+
+    Attributes:
+        study: The finished study's settings.
+        distil: The distillation's.
+        base: The predictor's best tuned heuristic (name, parameters): the planner's base.
+    """
+
+    study: FleetStudyConfig
+    distil: DistilConfig
+    base: tuple[str, dict[str, Any]]
+
+    @property
+    def fields(self) -> tuple[str, ...]:
+        return ("rul_mean",) if self.distil.predictor == ORACLE else INTERVAL
+
+    def layout(self) -> FleetLayout:
+        return FleetLayout.of(self.study.fleet, fields=self.fields)
+
+    def env(self, atlas: Atlas, fitted: Predictor | None) -> Any:
+        return rul_env(self.study, atlas, self.distil.predictor, fitted, self.fields)
+
+    def rule(self) -> Any:
+        """The base rule reading this job's layout (the interval's fields beside the mean)."""
+        import optuna  # the fleet extra, imported where used (as in tuning.tune)
+
+        from agents.fleet.evaluation.tuning import SPACES
+
+        name, params = self.base
+        trial = optuna.trial.FixedTrial(params)
+        return SPACES[name](trial, self.layout(), self.study.fleet.window_period)
+
+    def training(self, seed: int) -> Any:
+        """A seed's training, spares by the base rule's (s, S) (the planner's order)."""
+        p = self.rule().params
+        return replace(self.distil.training, seed=seed, reorder=(int(p.s), int(p.S)))
+
+    def planner(self, atlas: Atlas) -> RolloutPolicy:
+        s = self.study
+        return RolloutPolicy(self.rule(), PlanningModel.build(s.fleet, atlas),
+                             s.rollout_horizon, s.rollout_samples, s.seed)  # fmt: skip
+
+    def label_key(self, round_: int, chunk: int) -> str:
+        return f"labels-{self.distil.predictor}-r{round_}-c{chunk}-{self.distil.digest()}"
+
+    def label_keys(self, below: int) -> list[str]:
+        return [self.label_key(r, i) for r in range(below)
+                for i in range(len(self.distil.label_chunks(r)))]  # fmt: skip
+
+    def seed_key(self, seed: int) -> str:
+        return f"distil-{self.distil.predictor}-seed{seed}-{self.distil.digest()}"
+
+    def keys(self) -> list[str]:
+        d = self.distil
+        return self.label_keys(d.label_rounds + 1) + [self.seed_key(s) for s in range(d.seeds)]
+
+
+class _Timed:
+    """A policy whose ``predict`` calls are timed (the decision alone, not the env)."""
+
+    def __init__(self, policy: Any) -> None:
+        self.policy, self.seconds, self.calls = policy, 0.0, 0
+
+    def predict(self, observation: Any, *args: Any, **kw: Any) -> Any:
+        t0 = time.perf_counter()
+        out = self.policy.predict(observation, *args, **kw)
+        self.seconds += time.perf_counter() - t0
+        self.calls += 1
+        return out
+
+    def __repr__(self) -> str:
+        return repr(self.policy)
+
+
+def _single_thread(fn: Any, *args: Any) -> Any:
+    """``fn(*args)`` with torch on one thread: the same numbers in this process and on Ray,
+    and no waits for threads on busy cores."""
+    import torch
+
+    threads = torch.get_num_threads()
+    torch.set_num_threads(1)
+    try:
+        return fn(*args)
+    finally:
+        torch.set_num_threads(threads)
+
+
+def label_unit(
+    job: Job, atlas: Atlas, fitted: Predictor | None, round_: int, seeds: list[int],
+    earlier: list[dict[str, Any]],
+) -> dict[str, Any]:  # fmt: skip
+    """The planner's labels on ``seeds``' episodes: it drives in round 0; later, a clone of
+    the ``earlier`` labels drives (:func:`labelling_clone`)."""
+    return _single_thread(_labels, job, atlas, fitted, round_, seeds, earlier)
+
+
+def _labels(
+    job: Job, atlas: Atlas, fitted: Predictor | None, round_: int, seeds: list[int],
+    earlier: list[dict[str, Any]],
+) -> dict[str, Any]:  # fmt: skip
+    t0 = time.perf_counter()
+    planner = _Timed(job.planner(atlas))
+    env = ReorderBy(job.env(atlas, fitted), *job.training(0).reorder)
+    actor = None
+    if round_ > 0:
+        clone = labelling_clone(job, atlas, fitted, earlier)
+
+        def actor(obs: NDArray[Any], mask: NDArray[np.bool_]) -> NDArray[np.int64]:
+            return np.asarray(clone.predict(obs)[0][:-1], dtype=np.int64)
+
+    demo = record(env, planner, seeds, drop_order=True, actor=actor)
+    return {
+        **demo_dict(demo), "round": round_, "seeds": np.array(seeds),
+        "planner_seconds": planner.seconds, "decisions": planner.calls,
+        "agreement": float((demo.taken == demo.actions).all(axis=1).mean()),
+        "seconds": time.perf_counter() - t0,
+    }  # fmt: skip
+
+
+def labelling_clone(
+    job: Job, atlas: Atlas, fitted: Predictor | None, earlier: list[dict[str, Any]]
+) -> Any:
+    """The clone that drives a DAgger round: every earlier label, no PPO, fitted from
+    :data:`LABEL_SEED0` (the same clone in every unit of the round)."""
+    st = replace(job.training(LABEL_SEED0), timesteps=0)
+    labels = concat([demo_of(d) for d in earlier])
+    return train_on_labels(lambda: job.env(atlas, fitted), job.layout(), st, labels)
+
+
+def seed_unit(
+    job: Job, atlas: Atlas, fitted: Predictor | None, seed: int, labels: list[dict[str, Any]]
+) -> dict[str, Any]:
+    """One training seed: the clone of every label, PPO if ``training.timesteps``, then the
+    study's evaluation episodes with each decision timed."""
+    return _single_thread(_seed, job, atlas, fitted, seed, labels)
+
+
+def _seed(
+    job: Job, atlas: Atlas, fitted: Predictor | None, seed: int, labels: list[dict[str, Any]]
+) -> dict[str, Any]:
+    from agents.fleet.learning.agent import FleetAgent
+
+    t0 = time.perf_counter()
+    st = job.training(TRAIN_SEED0 + 100 * seed)
+    lay, study = job.layout(), job.study
+    curve_env = job.env(atlas, fitted)
+
+    def agent_at(m: Any, mean: Any, var: Any) -> Any:
+        return FleetAgent(m, lay, mean, var, reorder=st.reorder, cover=st.cover_needs)
+
+    def cost_at(m: Any, mean: Any, var: Any) -> float:
+        return mean_cost(curve_env, agent_at(m, mean, var), study)
+
+    curve = LearningCurve(study.curve_every, cost_at)
+    data = concat([demo_of(d) for d in labels])
+    agent = train_on_labels(lambda: job.env(atlas, fitted), lay, st, data,
+                            curve.callback() if st.timesteps else None)  # fmt: skip
+    train_s = time.perf_counter() - t0
+    timed = _Timed(agent)
+    eps = run_episodes(job.env(atlas, fitted), timed, study.eval_seeds(), check_masks=True)
+    imitation = agent.imitation
+    assert imitation is not None
+    return {
+        "predictor": job.distil.predictor, "seed": seed, "samples": len(data.rewards),
+        "agreement": imitation.agreement, "nll": imitation.nll,
+        "curve": {"timesteps": np.array([p[0] for p in curve.points], dtype=float),
+                  "cost": np.array([p[1] for p in curve.points], dtype=float)},
+        "episodes": episodes_dict(eps),
+        "seconds": {"train": train_s, "evaluate": time.perf_counter() - t0 - train_s},
+        "seconds_per_decision": timed.seconds / max(timed.calls, 1),
+    }  # fmt: skip
+
+
+def demo_dict(d: Demonstrations) -> dict[str, NDArray[Any]]:
+    return {"obs": d.obs, "actions": d.actions, "masks": d.masks, "rewards": d.rewards,
+            "starts": d.starts, "taken": d.taken}  # fmt: skip
+
+
+def demo_of(d: Mapping[str, Any]) -> Demonstrations:
+    return Demonstrations(*(np.asarray(d[k]) for k in
+                            ("obs", "actions", "masks", "rewards", "starts", "taken")))  # fmt: skip
+
+
+def distil_graph(job: Job, runner: Runner, atlas: Any, fitted: Any) -> list[Unit | Later]:
+    """Round r's label units after every earlier round's; the seeds after every label."""
+    d = job.distil
+    per_shift = job.study.shifts
+
+    def labels(r: Mapping[str, Any], round_: int, chunk: int, seeds: list[int]) -> Unit:
+        earlier = [r[k] for k in job.label_keys(round_)]
+        return Unit(job.label_key(round_, chunk), label_unit,
+                    (job, atlas, fitted, round_, seeds, earlier),
+                    100.0 * len(seeds) * per_shift)  # fmt: skip
+
+    def trained(r: Mapping[str, Any], seed: int) -> Unit:
+        every = [r[k] for k in job.label_keys(d.label_rounds + 1)]
+        w = 3.0 * d.training.timesteps + job.study.eval_episodes * per_shift
+        return Unit(job.seed_key(seed), seed_unit, (job, atlas, fitted, seed, every), w)
+
+    nodes: list[Unit | Later] = []
+    for round_ in range(d.label_rounds + 1):
+        for i, seeds in enumerate(d.label_chunks(round_)):
+            nodes.append(Later(job.label_key(round_, i), tuple(job.label_keys(round_)),
+                               partial(labels, round_=round_, chunk=i, seeds=seeds)))  # fmt: skip
+    every = tuple(job.label_keys(d.label_rounds + 1))
+    nodes += [Later(job.seed_key(s), every, partial(trained, seed=s)) for s in range(d.seeds)]
+    return nodes
+
+
+def run_distil(
+    job: Job, atlas: Atlas, fitted: Predictor | None, out: Path, runner: Runner,
+    progress: Any = None,
+) -> dict[str, Any]:  # fmt: skip
+    """Every unit's result by key, kept in ``out/units`` (an interrupted run resumes)."""
+    keys = job.keys()
+    s = job.study
+    settings = {**s.settings(), "atlas": atlas.content_hash, "base": list(job.base),
+                "horizon": s.rollout_horizon, "samples": s.rollout_samples}  # fmt: skip
+    store = open_store(out / UNITS, settings, keys, "fleet-distil")
+    bar = progress("fleet-distil units", len(keys)) if progress else None
+    try:
+        return runner.run_graph(
+            distil_graph(job, runner, runner.share(atlas),
+                         None if fitted is None else runner.share(fitted)),
+            store, (lambda k, r: bar.update(1)) if bar else None,
+        )  # fmt: skip
+    finally:
+        if bar is not None:
+            bar.close()
