@@ -151,7 +151,7 @@ def pool_vehicle_stats(mean: NDArray[Any], var: NDArray[Any], lay: VehicleLayout
     that normalised values compare across vehicles."""
     a, b = lay.n * N_VF, lay.n * N_VF + lay.nf
     for lo, hi, width in ((0, a, N_VF), (b, len(mean), lay.k)):
-        m = mean[lo:hi].reshape(lay.n, width)
-        v = var[lo:hi].reshape(lay.n, width)
+        m = mean[lo:hi].reshape(lay.n, width).copy()  # copies: the slices are overwritten
+        v = var[lo:hi].reshape(lay.n, width).copy()
         mean[lo:hi] = np.tile(m.mean(axis=0), lay.n)
         var[lo:hi] = np.tile(v.mean(axis=0) + m.var(axis=0), lay.n)

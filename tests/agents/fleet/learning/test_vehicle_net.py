@@ -1,0 +1,158 @@
+"""The distilled policy's parts (agents.fleet.learning.vehicle_net, cover_needs,
+train_on_labels): the shared per-vehicle network is permutation-equivariant, the pooled
+statistics compare vehicles, the needs are covered from idle vehicles only, and cloning
+from recorded labels is deterministic for a seed."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from agents.fleet.learning.agent import ReorderBy, cover_needs, oracle_fleet_env, train_on_labels
+from agents.fleet.learning.imitation import record
+from agents.fleet.policies.rules import FleetRule, FleetRuleParams
+from agents.fleet.policies.view import FleetLayout, FleetView
+from agents.fleet.settings import FleetTraining
+from brake_env.env.fleet.config import FleetConfig
+from brake_env.env.fleet.shop import HOT, MILD, PARK, SERVICE
+from brake_env.env.fleet.spaces import FLEET_FEATURES, N_VF
+from tests.agents.fleet.learning.small_fleet import CFG
+
+pytest.importorskip("sb3_contrib")
+torch = pytest.importorskip("torch")
+
+DEFAULT = FleetConfig()  # 12 vehicles: 6 on the ramp, 4 in the drifts
+
+
+def _view(rul: list[float], down: list[bool] | None = None, to_window: int = 5) -> FleetView:
+    n = len(rul)
+    r = np.array(rul, dtype=float)
+    return FleetView(rul=r, age=np.zeros(n), down=np.array(down or [False] * n), shift=3,
+                     to_window=to_window, stock=2, transit=0, free_bays=1)  # fmt: skip
+
+
+def test_cover_needs_sends_the_healthiest_idle_vehicles_to_the_short_routes() -> None:
+    rul = [float(v) for v in range(10, 130, 10)]  # vehicle i has 10 (i + 1) shifts
+    duty = np.full(12, PARK)
+    duty[[0, 1, 2, 3]] = HOT  # 2 short of the ramp's 6
+    duty[4] = MILD  # 3 short of the drifts' 4
+    duty[5] = SERVICE
+    got = cover_needs(DEFAULT, duty, _view(rul))
+    assert list(np.flatnonzero(got == HOT)) == [0, 1, 2, 3, 10, 11]  # the two healthiest idle
+    assert list(np.flatnonzero(got == MILD)) == [4, 7, 8, 9]  # then the next three
+    assert got[5] == SERVICE and list(np.flatnonzero(got == PARK)) == [6]
+
+
+def test_cover_needs_leaves_covered_shifts_windows_and_unable_vehicles_alone() -> None:
+    rul = [50.0] * 12
+    covered = np.array([HOT] * 7 + [MILD] * 3 + [PARK] * 2)  # the 7th ramp truck covers a drift
+    assert np.array_equal(cover_needs(DEFAULT, covered, _view(rul)), covered)
+    idle = np.full(12, PARK)
+    assert np.array_equal(cover_needs(DEFAULT, idle, _view(rul, to_window=0)), idle)
+    down = [True] * 11 + [False]
+    got = cover_needs(DEFAULT, idle, _view([50.0] * 11 + [0.5], down=down))
+    assert np.array_equal(got, idle)  # the one able vehicle has half a shift of life left
+
+
+def test_cover_needs_is_the_identity_on_a_rule_along_an_episode(atlas) -> None:
+    env = oracle_fleet_env(CFG, atlas)
+    rule = FleetRule(FleetLayout.of(CFG), FleetRuleParams())
+    obs, _ = env.reset(seed=4)
+    for _ in range(CFG.episode_shifts):
+        action, _ = rule.predict(obs)
+        view = FleetView.read(obs, rule.layout)
+        assert np.array_equal(cover_needs(CFG, action[:-1], view), action[:-1])
+        obs, *_ = env.step(action)
+
+
+def _lay() -> FleetLayout:
+    return FleetLayout.of(DEFAULT, fields=("rul_mean", "rul_lower", "rul_upper"))
+
+
+def test_pooled_statistics_are_one_per_feature_and_pool_the_spread() -> None:
+    from agents.fleet.learning.vehicle_net import VehicleLayout, pool_vehicle_stats
+
+    lay = VehicleLayout.of(_lay())
+    size = lay.n * (N_VF + lay.k) + lay.nf
+    rng = np.random.default_rng(0)
+    mean, var = rng.normal(size=size), rng.uniform(1, 2, size=size)
+    fleet = slice(lay.n * N_VF, lay.n * N_VF + lay.nf)
+    fleet_before = mean[fleet].copy(), var[fleet].copy()
+    m0 = mean[: lay.n * N_VF].reshape(lay.n, N_VF)[:, 0].copy()
+    v0 = var[: lay.n * N_VF].reshape(lay.n, N_VF)[:, 0].copy()
+    pool_vehicle_stats(mean, var, lay)
+    per = mean[: lay.n * N_VF].reshape(lay.n, N_VF)
+    assert np.allclose(per, per[0]) and per[0, 0] == pytest.approx(m0.mean())
+    assert var[0] == pytest.approx(v0.mean() + m0.var())  # within plus between vehicles
+    assert np.array_equal(mean[fleet], fleet_before[0]) and np.array_equal(
+        var[fleet], fleet_before[1]
+    )
+
+
+def test_the_vehicle_network_is_permutation_equivariant() -> None:
+    from agents.fleet.learning.vehicle_net import VehicleExtractor, VehicleHead, VehicleLayout
+
+    lay = VehicleLayout.of(_lay())
+    torch.manual_seed(0)
+    net, head = VehicleExtractor(lay, 16), VehicleHead(lay.n, 16, 4)
+    rng = np.random.default_rng(1)
+    own, fleet = rng.normal(size=(lay.n, N_VF)), rng.normal(size=len(FLEET_FEATURES))
+    app = rng.normal(size=(lay.n, lay.k))
+    perm = rng.permutation(lay.n)
+
+    def flat(o: np.ndarray, a: np.ndarray) -> torch.Tensor:
+        return torch.as_tensor(
+            np.concatenate([o.ravel(), fleet, a.ravel()])[None], dtype=torch.float32
+        )
+
+    x, y = flat(own, app), flat(own[perm], app[perm])
+    with torch.no_grad():
+        lx, ly = (
+            head(net.forward_actor(x)).reshape(lay.n, 4),
+            head(net.forward_actor(y)).reshape(lay.n, 4),
+        )
+        vx, vy = net.forward_critic(x), net.forward_critic(y)
+    assert torch.allclose(lx[perm], ly, atol=1e-6)  # each vehicle's logits follow it
+    assert torch.allclose(vx, vy, atol=1e-6)  # the critic does not care about the order
+    assert not torch.allclose(lx[0], lx[1])  # and vehicles with other values differ
+
+
+SETTINGS = FleetTraining(timesteps=0, n_envs=1, batch_size=32, imitation_episodes=1,
+                         imitation_epochs=3, reorder=(1, 2), cover_needs=True,
+                         vehicle_net=True, net_arch=(16, 16), seed=5)  # fmt: skip
+
+
+@pytest.fixture(scope="module")
+def labels(atlas):
+    rule = FleetRule(FleetLayout.of(CFG), FleetRuleParams(s=1, S=2))
+    env = ReorderBy(oracle_fleet_env(CFG, atlas), 1, 2)
+    return record(env, rule, [11, 12], drop_order=True)
+
+
+def test_cloning_from_labels_is_deterministic_for_a_seed_and_differs_across_seeds(atlas, labels):
+    def clone(seed: int):
+        st = dataclasses.replace(SETTINGS, seed=seed)
+        return train_on_labels(
+            lambda: oracle_fleet_env(CFG, atlas), FleetLayout.of(CFG), st, labels
+        )
+
+    a, b, c = clone(5), clone(5), clone(6)
+    obs = labels.obs[:8]
+    pa = [a.model.policy.state_dict()[k] for k in sorted(a.model.policy.state_dict())]
+    pb = [b.model.policy.state_dict()[k] for k in sorted(b.model.policy.state_dict())]
+    pc = [c.model.policy.state_dict()[k] for k in sorted(c.model.policy.state_dict())]
+    assert all(torch.equal(x, y) for x, y in zip(pa, pb, strict=True))
+    assert not all(torch.equal(x, y) for x, y in zip(pa, pc, strict=True))
+    assert np.array_equal(a.normalize(obs), b.normalize(obs))
+    assert a.imitation is not None and a.imitation.samples == len(labels.rewards) == 2 * 20
+    # the statistics were pooled over vehicles: both vehicles' RUL share one scale
+    k = FleetLayout.of(CFG).per_vehicle
+    assert a.mean[-k] == a.mean[-2 * k] and a.std[-k] == a.std[-2 * k]
+
+
+def test_the_vehicle_network_refuses_an_order_in_its_action(atlas, labels) -> None:
+    st = dataclasses.replace(SETTINGS, reorder=None)
+    with pytest.raises(ValueError, match="set reorder"):
+        train_on_labels(lambda: oracle_fleet_env(CFG, atlas), FleetLayout.of(CFG), st, labels)
