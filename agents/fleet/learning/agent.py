@@ -175,7 +175,7 @@ class FleetAgent(FrozenAgent):
 
     def __init__(
         self, model: Any, layout: FleetLayout, obs_mean: F32, obs_var: F32, clip: float = 10.0,
-        reorder: tuple[int, int] | None = None, cover: bool = False,
+        *, reorder: tuple[int, int] | None = None, cover: bool = False,
     ) -> None:  # fmt: skip
         super().__init__(model, layout, obs_mean, obs_var, clip)
         self.reorder, self.cover = reorder, cover

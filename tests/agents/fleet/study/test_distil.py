@@ -1,0 +1,126 @@
+"""``brakewear fleet-distil`` end to end on a tiny study: the planner's labels are its own
+decisions, a DAgger round is driven by the clone, every seed runs the study's evaluation
+episodes, the figures are the IQM and the study's rows, a rerun reads the units, and bad
+input gets one error naming it."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from scipy.stats import trim_mean
+
+from agents.fleet.evaluation.costs import gap_closed
+from agents.fleet.settings import DistilConfig, FleetStudyConfig, FleetTraining
+from agents.fleet.study import distil as distil_module
+from agents.fleet.study.distil import Job, demo_of
+from agents.fleet.study.run import run_fleet_study
+from brake_env.cli.main import main
+from brake_env.runner import Runner
+
+pytest.importorskip("sb3_contrib")
+
+STUDY = FleetStudyConfig(
+    shifts=24, predictors=("oracle",), heuristics=("threshold",), trials=2, tune_episodes=1,
+    eval_episodes=3, n_train_runs=2, rollout_predictors=("oracle",), rollout_horizon=3,
+    rollout_samples=2, rollout_chunk=3, bound_iterations=2,
+)  # fmt: skip
+ARGS = ["--predictor", "oracle", "--seeds", "2", "--label-episodes", "2", "--label-rounds", "1",
+        "--label-chunk", "1", "--imitation-epochs", "2", "--workers", "0", "--quiet"]  # fmt: skip
+
+
+def distil(study: object, out: object, args: list[str] = ARGS) -> int:
+    return main(["fleet-distil", "--study", str(study), "--out", str(out), *args])
+
+
+@pytest.fixture(scope="module")
+def distilled(atlas, tmp_path_factory):
+    root = tmp_path_factory.mktemp("distil")
+    study = run_fleet_study(STUDY, atlas, root / "study", Runner(0), n_resamples=200)
+    assert (
+        main(["fleet-distil", "--study", str(root / "study"), "--out", str(root / "d"), *ARGS]) == 0
+    )
+    return root, study, json.loads((root / "d" / "distil.json").read_text())
+
+
+def test_the_config_reads_back_from_the_study_s_costs_json(distilled) -> None:
+    _, study, _ = distilled
+    assert FleetStudyConfig.from_dict(study["config"]) == STUDY
+
+
+def test_the_labels_are_the_planner_s_own_decisions_and_dagger_is_driven_by_the_clone(
+    distilled, atlas
+) -> None:
+    _, _, d = distilled
+    job = Job(STUDY, DistilConfig(predictor="oracle", seeds=2, label_episodes=1,
+                                  training=_training(d)), (d["base"], d["params"]))  # fmt: skip
+    r0 = distil_module.label_unit(job, atlas, None, 0, job.distil.label_seeds(0), [])
+    r1 = distil_module.label_unit(job, atlas, None, 1, job.distil.label_seeds(1), [r0])
+    assert r0["agreement"] == 1.0  # round 0: the planner drives
+    demo = demo_of(r0)
+    assert demo.actions.shape == (STUDY.shifts, 2) and (demo.actions < 4).all()  # duties only
+    planner = job.planner(atlas)
+    again = np.stack([planner.predict(o)[0][:-1] for o in demo.obs])
+    assert np.array_equal(again, demo.actions)  # the same decisions on the stored states
+    assert r1["round"] == 1 and not np.array_equal(demo_of(r1).taken, demo_of(r1).actions)
+    assert r0["decisions"] == STUDY.shifts and r0["planner_seconds"] > 0
+
+
+def test_every_seed_runs_the_study_s_episodes_and_the_figures_are_its_iqm(distilled) -> None:
+    root, study, d = distilled
+    assert [s["seed"] for s in d["seeds"]] == [0, 1]
+    seed_means = np.array([s["figure"] for s in d["seeds"]])
+    c = d["compared"]
+    assert c["base"]["iqm"]["point"] == pytest.approx(trim_mean(seed_means, 0.25))
+    base = next(r for r in study["rows"] if r["policy"] == d["base"])
+    assert c["base"]["cost"] == pytest.approx(np.mean(base["episodes"]["cost"]))
+    assert c["base"]["difference"]["point"] == pytest.approx(
+        c["base"]["iqm"]["point"] - c["base"]["cost"]
+    )
+    assert c["bound"]["cost"] == pytest.approx(np.mean(study["bound"]["episodes"]))
+    assert d["speed"]["times_faster"] > 0 and d["labels"]["rounds"][0]["driver_agreement"] == 1.0
+    assert (root / "d" / "figures" / "distil.png").stat().st_size > 0
+    assert "Distilled planner" in (root / "d" / "report.md").read_text()
+
+
+def test_a_rerun_reads_every_unit(distilled, monkeypatch) -> None:
+    root, _, d = distilled
+
+    def refuse(*args: object) -> None:
+        raise AssertionError("a unit ran again")
+
+    monkeypatch.setattr(distil_module, "label_unit", refuse)
+    monkeypatch.setattr(distil_module, "seed_unit", refuse)
+    assert (
+        main(["fleet-distil", "--study", str(root / "study"), "--out", str(root / "d"), *ARGS]) == 0
+    )
+    assert json.loads((root / "d" / "distil.json").read_text())["seeds"] == d["seeds"]
+
+
+def test_bad_input_gets_one_error_naming_it(distilled, tmp_path, capsys) -> None:
+    root, _, _ = distilled
+    assert (
+        main(["fleet-distil", "--study", str(tmp_path), "--out", str(tmp_path / "o"), *ARGS]) != 0
+    )
+    assert "no costs.json there" in capsys.readouterr().err
+    args = [*ARGS]
+    args[args.index("oracle")] = "twin"
+    assert (
+        main(["fleet-distil", "--study", str(root / "study"), "--out", str(tmp_path / "p"), *args])
+        != 0
+    )
+    assert "tuned no heuristic with it (its predictors: oracle)" in capsys.readouterr().err
+
+
+def test_gap_closed_is_zero_at_the_base_one_at_the_better_policy_and_nan_without_a_gap() -> None:
+    base, better = np.array([3.0, 4.0, 5.0]), np.array([2.0, 3.0, 3.0])
+    assert gap_closed(np.array([base, base]), base, better, n_resamples=50).point == 0.0
+    assert gap_closed(np.array([better]), base, better, n_resamples=50).point == 1.0
+    assert np.isnan(gap_closed(np.array([base]), base, base, n_resamples=50).point)
+
+
+def _training(d: dict) -> FleetTraining:
+    t = dict(d["distil"]["training"])
+    t["net_arch"] = tuple(t["net_arch"])
+    return FleetTraining(**t)
