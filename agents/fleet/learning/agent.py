@@ -193,9 +193,10 @@ class FleetAgent(FrozenAgent):
         mask = view.mask(self.layout.max_order)
         if self.reorder is not None:
             mask = mask[: 4 * self.layout.n_vehicles]
-        action, _ = self.model.predict(
-            self.normalize(obs), action_masks=mask, deterministic=deterministic
-        )
+        if deterministic:
+            action = self.mode(self.normalize(obs), mask)
+        else:
+            action, _ = self.model.predict(self.normalize(obs), action_masks=mask)
         action = np.asarray(action, dtype=np.int64)
         if self.cover:
             n = self.layout.n_vehicles
@@ -207,6 +208,21 @@ class FleetAgent(FrozenAgent):
             q = reorder(view.stock, view.transit, fits, s, S, self.layout.max_order)
             action = np.append(action, q)
         return action, state
+
+    def mode(self, z: F32, mask: NDArray[np.bool_]) -> I64:
+        """The deterministic action for a normalised observation: each dimension's allowed
+        action of highest logit, SB3's ``predict(deterministic=True)`` without its per-call
+        overhead (about 10x faster; tested equal)."""
+        import torch as th
+
+        policy = self.model.policy
+        with th.no_grad():
+            features = policy.extract_features(th.as_tensor(z[None]), policy.pi_features_extractor)
+            logits = policy.action_net(policy.mlp_extractor.forward_actor(features))[0].numpy()
+        nvec = np.asarray(policy.action_space.nvec)
+        cuts = np.cumsum(nvec)[:-1]
+        pairs = zip(np.split(logits, cuts), np.split(mask, cuts), strict=True)
+        return np.array([int(np.argmax(np.where(m, lg, -np.inf))) for lg, m in pairs])
 
     def __repr__(self) -> str:
         return f"FleetAgent({self.name})"

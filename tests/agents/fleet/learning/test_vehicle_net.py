@@ -156,3 +156,15 @@ def test_the_vehicle_network_refuses_an_order_in_its_action(atlas, labels) -> No
     st = dataclasses.replace(SETTINGS, reorder=None)
     with pytest.raises(ValueError, match="set reorder"):
         train_on_labels(lambda: oracle_fleet_env(CFG, atlas), FleetLayout.of(CFG), st, labels)
+
+
+def test_the_fast_deterministic_action_is_sb3_s(atlas, labels) -> None:
+    for vehicle_net in (True, False):
+        st = dataclasses.replace(SETTINGS, vehicle_net=vehicle_net, cover_needs=False)
+        lay = FleetLayout.of(CFG)  # the flat MLP clones through train_on_labels too
+        agent = train_on_labels(lambda: oracle_fleet_env(CFG, atlas), lay, st, labels)
+        for obs, m in zip(labels.obs, labels.masks, strict=True):
+            want, _ = agent.model.predict(agent.normalize(obs), action_masks=m, deterministic=True)
+            assert np.array_equal(agent.mode(agent.normalize(obs), m), want)
+            got, _ = agent.predict(obs)
+            assert np.array_equal(got[:-1], want)  # predict takes the fast path
