@@ -212,14 +212,21 @@ class FleetAgent(FrozenAgent):
     def mode(self, z: F32, mask: NDArray[np.bool_]) -> I64:
         """The deterministic action for a normalised observation: each dimension's allowed
         action of highest logit, SB3's ``predict(deterministic=True)`` without its per-call
-        overhead (about 10x faster; tested equal)."""
+        overhead (tested equal). The vehicle network runs in numpy with its weights taken at
+        the first call: the agent is frozen (a new one is made for each curve point)."""
         import torch as th
 
+        from agents.fleet.learning.vehicle_net import VehiclePolicy, numpy_actor
+
         policy = self.model.policy
+        nvec = np.asarray(policy.action_space.nvec)
+        if isinstance(policy, VehiclePolicy):  # the weights as they are now: frozen
+            self._actor = getattr(self, "_actor", None) or numpy_actor(policy)
+            logits = self._actor(z).reshape(len(nvec), -1)
+            return np.where(mask.reshape(logits.shape), logits, -np.inf).argmax(axis=1)
         with th.no_grad():
             features = policy.extract_features(th.as_tensor(z[None]), policy.pi_features_extractor)
             logits = policy.action_net(policy.mlp_extractor.forward_actor(features))[0].numpy()
-        nvec = np.asarray(policy.action_space.nvec)
         cuts = np.cumsum(nvec)[:-1]
         pairs = zip(np.split(logits, cuts), np.split(mask, cuts), strict=True)
         return np.array([int(np.argmax(np.where(m, lg, -np.inf))) for lg, m in pairs])

@@ -18,6 +18,7 @@ vehicle's copy of a feature: :func:`pool_vehicle_stats` pools them (SB3's
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -143,6 +144,39 @@ class VehiclePolicy(MaskableActorCriticPolicy):
             lr=lr_schedule(1),
             **self.optimizer_kwargs,  # type: ignore[call-arg]
         )
+
+
+def numpy_actor(policy: VehiclePolicy) -> Callable[[NDArray[np.float32]], NDArray[np.float32]]:
+    """The actor's logits for one normalised observation, in numpy with the weights as they
+    are now (a frozen policy): the same numbers as the torch modules (tested), without
+    torch's per-operation overhead (about 3x faster)."""
+    ext, head = policy.mlp_extractor, policy.action_net
+    assert isinstance(ext, VehicleExtractor) and isinstance(head, VehicleHead)
+
+    def weights(layer: Any) -> tuple[NDArray[np.float32], NDArray[np.float32]]:
+        lin: Any = layer[0] if isinstance(layer, nn.Sequential) else layer
+        return lin.weight.detach().numpy().T.copy(), lin.bias.detach().numpy().copy()
+
+    (w1, b1), (w2, b2), (wh, bh) = weights(ext.pi[0]), weights(ext.pi[1]), weights(head.linear)
+    lay, h = ext.lay, ext.hidden
+    a, b = lay.n * N_VF, lay.n * N_VF + lay.nf
+    # the first layer's input is [own, appended, fleet, ranks]: one product per block, the
+    # fleet's (the same for every vehicle) folded into the bias once per decision
+    w_own, w_app = w1[:N_VF], w1[N_VF : N_VF + lay.k]
+    w_fleet, w_rank = w1[N_VF + lay.k : N_VF + lay.k + lay.nf], w1[N_VF + lay.k + lay.nf :]
+    w2_own, w2_mean = w2[:h], w2[h:]
+    scale = np.float32(1.0 / max(lay.n - 1, 1))
+
+    def logits(z: NDArray[np.float32]) -> NDArray[np.float32]:
+        own, app = z[:a].reshape(lay.n, N_VF), z[b:].reshape(lay.n, lay.k)
+        hot, mild = app[:, lay.hot], app[:, lay.mild]
+        ranks = np.stack([(hot[:, None] > hot).sum(1), (mild[:, None] > mild).sum(1)], 1)
+        x = own @ w_own + app @ w_app + (ranks * scale) @ w_rank + (z[a:b] @ w_fleet + b1)
+        h1 = np.tanh(x)
+        h2 = np.tanh(h1 @ w2_own + (h1.mean(0) @ w2_mean + b2))
+        return (h2 @ wh + bh).ravel()
+
+    return logits
 
 
 def pool_vehicle_stats(mean: NDArray[Any], var: NDArray[Any], lay: VehicleLayout) -> None:

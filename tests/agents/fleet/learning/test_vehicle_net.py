@@ -168,3 +168,27 @@ def test_the_fast_deterministic_action_is_sb3_s(atlas, labels) -> None:
             assert np.array_equal(agent.mode(agent.normalize(obs), m), want)
             got, _ = agent.predict(obs)
             assert np.array_equal(got[:-1], want)  # predict takes the fast path
+
+
+def test_the_numpy_actor_gives_the_torch_logits() -> None:
+    from agents.fleet.learning.vehicle_net import (
+        VehicleExtractor,
+        VehicleHead,
+        VehicleLayout,
+        numpy_actor,
+    )
+
+    lay = VehicleLayout.of(_lay())
+
+    class Policy:  # the two modules numpy_actor reads
+        mlp_extractor = VehicleExtractor(lay, 16)
+        action_net = VehicleHead(lay.n, 16, 4)
+
+    rng = np.random.default_rng(2)
+    z = rng.normal(size=lay.n * (N_VF + lay.k) + lay.nf).astype(np.float32)
+    z[-lay.k :: -lay.k] = z[-lay.k]  # ties in a RUL column: ranks of equals
+    with torch.no_grad():
+        x = torch.as_tensor(z[None])
+        want = Policy.action_net(Policy.mlp_extractor.forward_actor(x))[0].numpy()
+    got = numpy_actor(Policy)(z)  # type: ignore[arg-type]
+    assert np.allclose(got, want, atol=1e-5)

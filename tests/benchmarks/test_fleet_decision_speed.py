@@ -1,0 +1,28 @@
+"""benchmarks/fleet_decision_speed.py on a tiny study: both policies decide every recorded
+state, and the printed ratio is the planner's time over the policy's."""
+
+from __future__ import annotations
+
+import pytest
+
+from agents.fleet.settings import FleetStudyConfig
+from agents.fleet.study.run import run_fleet_study
+from brake_env.runner import Runner
+from tests.benchmarks import load_script
+
+pytest.importorskip("sb3_contrib")
+
+
+def test_both_policies_decide_every_recorded_state(atlas, tmp_path, capsys) -> None:
+    study = FleetStudyConfig(
+        shifts=16, predictors=("oracle",), heuristics=("threshold",), trials=2, tune_episodes=1,
+        eval_episodes=2, n_train_runs=2,
+    )  # fmt: skip
+    run_fleet_study(study, atlas, tmp_path, Runner(0), n_resamples=50)
+    got = load_script("fleet_decision_speed").main(
+        [str(tmp_path), "--predictor", "oracle", "--episodes", "2", "--epochs", "1"]
+    )
+    assert got["states"] == 2 * 16
+    assert got["agent"] > 0 and got["planner"] > 0
+    ratio = got["planner"] / got["agent"]
+    assert f"decides {ratio:.0f}x faster than the planner" in capsys.readouterr().out
