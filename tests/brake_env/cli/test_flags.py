@@ -17,10 +17,12 @@ REQUIRED = {
     "fit": ["--data", "d.parquet", "--predictor", "twin"],
     "predict": ["--model", "m", "--log", "l.parquet"],
     "diagnose": ["--real", "r.parquet"],
+    "fleet-distil": ["--study", "s"],
 }
 COMMON = ["atlas", "simulate", "demo", "evaluate", "fit", "train", "compare", "fleet-study",
-          "diagnose", "validate-gap"]  # fmt: skip
-RUNNERS = ["predict", "evaluate", "train", "compare", "fleet-study", "validate-gap"]
+          "fleet-distil", "diagnose", "validate-gap"]  # fmt: skip
+RUNNERS = ["predict", "evaluate", "train", "compare", "fleet-study", "fleet-distil",
+           "validate-gap"]  # fmt: skip
 
 BAD: list[tuple[str, str, str]] = [
     *((cmd, "--seed", "-1") for cmd in COMMON),
@@ -78,6 +80,17 @@ BAD: list[tuple[str, str, str]] = [
     ("fleet-study", "--clip-range", "-1"),
     ("fleet-study", "--reorder", "-1"),
     ("fleet-study", "--tail", "-1"),
+    ("fleet-distil", "--predictor", "magic"),
+    ("fleet-distil", "--seeds", "0"),
+    ("fleet-distil", "--label-episodes", "0"),
+    ("fleet-distil", "--label-rounds", "-1"),
+    ("fleet-distil", "--label-chunk", "0"),
+    ("fleet-distil", "--timesteps", "-1"),
+    ("fleet-distil", "--imitation-epochs", "0"),
+    ("fleet-distil", "--imitation-lr", "0"),
+    ("fleet-distil", "--learning-rate", "-1"),
+    ("fleet-distil", "--ent-coef", "-0.1"),
+    ("fleet-distil", "--n-envs", "0"),
     ("diagnose", "--calibration-fraction", "1.5"),
     ("diagnose", "--candidates", " "),
     ("validate-gap", "--seeds", "0"),
