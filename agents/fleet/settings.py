@@ -357,8 +357,19 @@ class DistilConfig:
         seeds, k = self.label_seeds(round_), self.label_chunk
         return [seeds[i : i + k] for i in range(0, len(seeds), k)]
 
-    def digest(self) -> str:
-        """What the labels depend on besides the study (the labelling clone's training)."""
+    def digest(self, ppo: bool = True) -> str:
+        """What a unit depends on besides the study: the labels, the rounds and the cloning
+        (the labelling clone's); a seed, PPO's settings too (``ppo``), so that a rerun with
+        another PPO budget reuses the labels."""
+        training = asdict(self.training)
+        if not ppo:
+            for name in PPO_ONLY:
+                training.pop(name)
         spec = {"rounds": self.label_rounds, "episodes": self.label_episodes,
-                "training": asdict(self.training)}  # fmt: skip
+                "training": training}  # fmt: skip
         return hashlib.sha256(json.dumps(spec, sort_keys=True).encode()).hexdigest()[:10]
+
+
+# FleetTraining's fields that only PPO reads (the labelling clone runs none)
+PPO_ONLY = ("timesteps", "n_envs", "learning_rate", "n_steps", "n_epochs", "ent_coef",
+            "clip_range")  # fmt: skip

@@ -94,7 +94,7 @@ class Job:
                              s.rollout_horizon, s.rollout_samples, s.seed)  # fmt: skip
 
     def label_key(self, round_: int, chunk: int) -> str:
-        return f"labels-{self.distil.predictor}-r{round_}-c{chunk}-{self.distil.digest()}"
+        return f"labels-{self.distil.predictor}-r{round_}-c{chunk}-{self.distil.digest(False)}"
 
     def label_keys(self, below: int) -> list[str]:
         return [self.label_key(r, i) for r in range(below)

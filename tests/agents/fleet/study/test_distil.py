@@ -5,6 +5,7 @@ input gets one error naming it."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 
 import numpy as np
@@ -124,3 +125,14 @@ def _training(d: dict) -> FleetTraining:
     t = dict(d["distil"]["training"])
     t["net_arch"] = tuple(t["net_arch"])
     return FleetTraining(**t)
+
+
+def test_another_ppo_budget_keeps_the_labels_and_not_the_seeds() -> None:
+    a = Job(STUDY, DistilConfig(predictor="oracle"), ("threshold", {}))
+    t = DistilConfig().training
+    b = Job(STUDY, DistilConfig(predictor="oracle", training=dataclasses.replace(
+        t, timesteps=5000, learning_rate=3e-4)), ("threshold", {}))  # fmt: skip
+    c = Job(STUDY, DistilConfig(predictor="oracle", training=dataclasses.replace(
+        t, imitation_epochs=7)), ("threshold", {}))  # fmt: skip
+    assert a.label_keys(3) == b.label_keys(3) and a.seed_key(0) != b.seed_key(0)
+    assert a.label_key(1, 0) != c.label_key(1, 0)  # the labelling clone's training changed
