@@ -318,7 +318,9 @@ class DistilConfig:
 
     Attributes:
         predictor: Whose RUL the planner and the policy read (one of the study's).
-        seeds: Training seeds.
+        seeds: Training seeds of the central policy.
+        shared_seeds: Training seeds of the policy shared by the vehicles, cloned from the
+            same labels through TorchRL (:mod:`agents.fleet.study.distil_shared`).
         label_episodes: Episodes labelled per round.
         label_rounds: DAgger rounds after the planner's own episodes: a clone of every
             label so far (fitted from ``LABEL_SEED0``) drives, the planner labels.
@@ -330,6 +332,7 @@ class DistilConfig:
 
     predictor: str = "twin"
     seeds: int = 10
+    shared_seeds: int = 0
     label_episodes: int = 16
     label_rounds: int = 2
     label_chunk: int = 8
@@ -342,9 +345,12 @@ class DistilConfig:
     )  # fmt: skip
 
     def __post_init__(self) -> None:
-        for name in ("seeds", "label_episodes", "label_chunk"):
+        for name in ("label_episodes", "label_chunk"):
             if int(getattr(self, name)) < 1:
                 raise ValueError(f"DistilConfig: {name} must be >= 1, got {getattr(self, name)}")
+        if min(self.seeds, self.shared_seeds) < 0 or self.seeds + self.shared_seeds < 1:
+            raise ValueError(f"DistilConfig: seeds and shared_seeds must be >= 0, one of them"
+                             f" >= 1, got {self.seeds} and {self.shared_seeds}")  # fmt: skip
         if not 0 <= self.label_rounds < 1000 or self.label_episodes >= 1000:
             raise ValueError(f"DistilConfig: label_rounds must be in [0, 1000) and"
                              f" label_episodes < 1000, got {self.label_rounds} and"

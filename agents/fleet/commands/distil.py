@@ -53,8 +53,11 @@ def job_from_args(args: argparse.Namespace) -> tuple[Job, dict[str, Any]]:
         imitation_lr=args.imitation_lr, learning_rate=args.learning_rate,
         ent_coef=args.ent_coef, n_envs=args.n_envs,
     )  # fmt: skip
-    distil = DistilConfig(p, args.seeds, args.label_episodes, args.label_rounds,
-                          args.label_chunk, training)  # fmt: skip
+    distil = DistilConfig(
+        predictor=p, seeds=args.seeds, shared_seeds=args.shared_seeds,
+        label_episodes=args.label_episodes, label_rounds=args.label_rounds,
+        label_chunk=args.label_chunk, training=training,
+    )  # fmt: skip
     return Job(study, distil, (best, row["params"])), summary
 
 

@@ -135,7 +135,11 @@ def _register_distil(sub: argparse._SubParsersAction[Any]) -> None:
         "--predictor", choices=predictor_names(), default="twin",
         help="whose RUL the planner and the policy read (the study must have tuned it)",
     )  # fmt: skip
-    f.add_argument("--seeds", type=int_at_least(1), default=10, help="training seeds")
+    f.add_argument("--seeds", type=int_at_least(0), default=10, help="central policy's seeds")
+    f.add_argument(
+        "--shared-seeds", type=int_at_least(0), default=0,
+        help="seeds of the policy shared by the vehicles (TorchRL), from the same labels",
+    )  # fmt: skip
     f.add_argument("--label-episodes", type=int_at_least(1), default=16, help="per round")
     f.add_argument(
         "--label-rounds", type=int_at_least(0), default=2,

@@ -19,6 +19,7 @@ from agents.fleet.evaluation.tuning import SPACES
 from agents.fleet.policies.view import FleetLayout
 from agents.fleet.settings import FleetStudyConfig
 from brake_env.env.fleet.env import BrakeWearFleetEnv
+from brake_env.env.fleet.route_rul import ROUTE_NAMES
 from brake_env.env.fleet.wrappers import ExpectedRULObservation, FleetRULObservation
 from brake_env.model.atlas import Atlas
 from brake_env.prognostics.protocol import Predictor
@@ -27,15 +28,15 @@ from brake_env.prognostics.registry import ORACLE
 
 def rul_env(
     config: FleetStudyConfig, atlas: Atlas, predictor: str, fitted: Predictor | None,
-    fields: tuple[str, ...] = ("rul_mean",),
+    fields: tuple[str, ...] = ("rul_mean",), routes: tuple[str, ...] = ROUTE_NAMES,
 ) -> Any:  # fmt: skip
-    """The fleet env with ``predictor``'s RUL appended (``fields`` on the hot and the mild
-    route per vehicle, in shifts)."""
+    """The fleet env with ``predictor``'s RUL appended (``fields`` on each of ``routes``
+    per vehicle, in shifts)."""
     env = BrakeWearFleetEnv(config.fleet, atlas=atlas)
     if predictor == ORACLE:
-        return ExpectedRULObservation(env, fields)
+        return ExpectedRULObservation(env, fields, routes)
     assert fitted is not None, f"predictor {predictor!r} needs a fitted predictor"
-    return FleetRULObservation(env, fitted, fields=fields)
+    return FleetRULObservation(env, fitted, fields=fields, routes=routes)
 
 
 def layout(config: FleetStudyConfig) -> FleetLayout:

@@ -100,15 +100,22 @@ class Job:
         return [self.label_key(r, i) for r in range(below)
                 for i in range(len(self.distil.label_chunks(r)))]  # fmt: skip
 
-    def seed_key(self, seed: int) -> str:
-        return f"distil-{self.distil.predictor}-seed{seed}-{self.distil.digest()}"
+    def seed_key(self, seed: int, kind: str = "central") -> str:
+        prefix = "distil" if kind == "central" else f"distil-{kind}"
+        return f"{prefix}-{self.distil.predictor}-seed{seed}-{self.distil.digest()}"
+
+    def seed_runs(self) -> list[tuple[str, int]]:
+        """(kind, seed) of every trained policy: the central ones, then the shared ones."""
+        d = self.distil
+        return [("central", s) for s in range(d.seeds)] + [
+            ("shared", s) for s in range(d.shared_seeds)]  # fmt: skip
 
     def keys(self) -> list[str]:
-        d = self.distil
-        return self.label_keys(d.label_rounds + 1) + [self.seed_key(s) for s in range(d.seeds)]
+        runs = [self.seed_key(s, kind) for kind, s in self.seed_runs()]
+        return self.label_keys(self.distil.label_rounds + 1) + runs
 
 
-class _Timed:
+class Timed:
     """A policy whose ``predict`` calls are timed (the decision alone, not the env)."""
 
     def __init__(self, policy: Any) -> None:
@@ -125,7 +132,7 @@ class _Timed:
         return repr(self.policy)
 
 
-def _single_thread(fn: Any, *args: Any) -> Any:
+def single_thread(fn: Any, *args: Any) -> Any:
     """``fn(*args)`` with torch on one thread: the same numbers in this process and on Ray,
     and no waits for threads on busy cores."""
     import torch
@@ -144,7 +151,7 @@ def label_unit(
 ) -> dict[str, Any]:  # fmt: skip
     """The planner's labels on ``seeds``' episodes: it drives in round 0; later, a clone of
     the ``earlier`` labels drives (:func:`labelling_clone`)."""
-    return _single_thread(_labels, job, atlas, fitted, round_, seeds, earlier)
+    return single_thread(_labels, job, atlas, fitted, round_, seeds, earlier)
 
 
 def _labels(
@@ -152,7 +159,7 @@ def _labels(
     earlier: list[dict[str, Any]],
 ) -> dict[str, Any]:  # fmt: skip
     t0 = time.perf_counter()
-    planner = _Timed(job.planner(atlas))
+    planner = Timed(job.planner(atlas))
     env = ReorderBy(job.env(atlas, fitted), *job.training(0).reorder)
     actor = None
     if round_ > 0:
@@ -185,7 +192,7 @@ def seed_unit(
 ) -> dict[str, Any]:
     """One training seed: the clone of every label, PPO if ``training.timesteps``, then the
     study's evaluation episodes with each decision timed."""
-    return _single_thread(_seed, job, atlas, fitted, seed, labels)
+    return single_thread(_seed, job, atlas, fitted, seed, labels)
 
 
 def _seed(
@@ -209,7 +216,7 @@ def _seed(
     agent = train_on_labels(lambda: job.env(atlas, fitted), lay, st, data,
                             curve.callback() if st.timesteps else None)  # fmt: skip
     train_s = time.perf_counter() - t0
-    timed = _Timed(agent)
+    timed = Timed(agent)
     eps = run_episodes(job.env(atlas, fitted), timed, study.eval_seeds(), check_masks=True)
     imitation = agent.imitation
     assert imitation is not None
@@ -245,10 +252,13 @@ def distil_graph(job: Job, runner: Runner, atlas: Any, fitted: Any) -> list[Unit
                     (job, atlas, fitted, round_, seeds, earlier),
                     100.0 * len(seeds) * per_shift)  # fmt: skip
 
-    def trained(r: Mapping[str, Any], seed: int) -> Unit:
+    def trained(r: Mapping[str, Any], kind: str, seed: int) -> Unit:
+        from agents.fleet.study.distil_shared import shared_seed_unit
+
         every = [r[k] for k in job.label_keys(d.label_rounds + 1)]
         w = 3.0 * d.training.timesteps + job.study.eval_episodes * per_shift
-        return Unit(job.seed_key(seed), seed_unit, (job, atlas, fitted, seed, every), w)
+        fn = seed_unit if kind == "central" else shared_seed_unit
+        return Unit(job.seed_key(seed, kind), fn, (job, atlas, fitted, seed, every), w)
 
     nodes: list[Unit | Later] = []
     for round_ in range(d.label_rounds + 1):
@@ -256,7 +266,8 @@ def distil_graph(job: Job, runner: Runner, atlas: Any, fitted: Any) -> list[Unit
             nodes.append(Later(job.label_key(round_, i), tuple(job.label_keys(round_)),
                                partial(labels, round_=round_, chunk=i, seeds=seeds)))  # fmt: skip
     every = tuple(job.label_keys(d.label_rounds + 1))
-    nodes += [Later(job.seed_key(s), every, partial(trained, seed=s)) for s in range(d.seeds)]
+    nodes += [Later(job.seed_key(s, kind), every, partial(trained, kind=kind, seed=s))
+              for kind, s in job.seed_runs()]  # fmt: skip
     return nodes
 
 

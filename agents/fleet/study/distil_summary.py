@@ -45,19 +45,34 @@ def _episode_figure(row: dict[str, Any], objective: str, seeds: list[int]) -> F6
 def summarise_distil(
     job: Job, study: dict[str, Any], units: dict[str, Any], n_resamples: int = 4000
 ) -> dict[str, Any]:
-    """The seeds, the labels' cost, and the distilled policy against the study's rows."""
+    """The labels' cost, and each kind of distilled policy (``central``, ``shared``) over
+    its seeds against the study's rows."""
+    d = job.distil
+    labels = [units[k] for k in job.label_keys(d.label_rounds + 1)]
+    out: dict[str, Any] = {
+        "predictor": d.predictor, "objective": job.study.objective, "base": job.base[0],
+        "params": job.base[1], "distil": asdict(d), "labels": _labels(labels),
+    }  # fmt: skip
+    for kind in ("central", "shared"):
+        trained = [units[job.seed_key(s, kind)] for k, s in job.seed_runs() if k == kind]
+        if trained:
+            out[kind] = _policy(job, study, trained, out["labels"], n_resamples)
+    return out
+
+
+def _policy(
+    job: Job, study: dict[str, Any], trained: list[dict[str, Any]], labels: dict[str, Any],
+    n_resamples: int,
+) -> dict[str, Any]:  # fmt: skip
+    """One kind's seeds, its IQM against the heuristic, the planner and the bound, its speed."""
     d, objective = job.distil, job.study.objective
     seeds = job.study.eval_seeds()
-    trained = [units[job.seed_key(s)] for s in range(d.seeds)]
     eps = [episodes_of(u["episodes"]) for u in trained]
     per_seed = np.array([figures(e, objective) for e in eps])
     net = np.array([figures(e, "net") for e in eps])
-    labels = [units[k] for k in job.label_keys(d.label_rounds + 1)]
     out: dict[str, Any] = {
-        "predictor": d.predictor, "objective": objective, "base": job.base[0],
-        "params": job.base[1], "distil": asdict(d), "labels": _labels(labels),
-        "seeds": [_seed_row(u, e, objective) for u, e in zip(trained, eps, strict=True)],
-    }  # fmt: skip
+        "seeds": [_seed_row(u, e, objective) for u, e in zip(trained, eps, strict=True)]
+    }
     base = study_row(study, d.predictor, job.base[0])
     planner = study_row(study, d.predictor, f"rollout on {job.base[0]}")
     cmp = out["compared"] = {}
@@ -76,7 +91,7 @@ def summarise_distil(
         ratio = seeds_interval(net, bd, n_resamples=n_resamples)["ratio"]
         cmp["bound"] = {"cost": float(bd.mean()), "ratio": asdict(ratio)}
     agent_s = float(np.median([u["seconds_per_decision"] for u in trained]))
-    planner_s = out["labels"]["planner_seconds_per_decision"]
+    planner_s = labels["planner_seconds_per_decision"]
     out["speed"] = {"agent_seconds_per_decision": agent_s,
                     "planner_seconds_per_decision": planner_s,
                     "times_faster": planner_s / agent_s}  # fmt: skip
@@ -120,9 +135,27 @@ def _iv(x: dict[str, float], digits: int = 3) -> str:
     return f"{x['point']:.{digits}f} [{x['low']:.{digits}f}, {x['high']:.{digits}f}]"
 
 
+NAMES = {"central": "Central policy", "shared": "Policy shared by the vehicles (TorchRL)"}
+
+
 def distil_report(s: dict[str, Any], markdown: bool = False) -> str:
-    """The distilled policy against the heuristic, the planner and the bound; its seeds."""
-    c, lab, sp = s["compared"], s["labels"], s["speed"]
+    """Each distilled policy against the heuristic, the planner and the bound; its seeds;
+    what the labels cost."""
+    lab = s["labels"]
+    rounds = ", ".join(f"round {r['round']}: {r['episodes']} episodes, driver agrees with the"
+                       f" planner on {r['driver_agreement']:.1%} of shifts"
+                       for r in lab["rounds"])  # fmt: skip
+    lines = [f"The rollout planner on {s['base']} distilled, {s['predictor']}'s RUL",
+             f"Labels (once, shared by every seed): {lab['seconds']:.0f} s of CPU; {rounds}",
+             ""]  # fmt: skip
+    for kind in ("central", "shared"):
+        if kind in s:
+            lines += [_policy_report(s, s[kind], NAMES[kind], markdown), ""]
+    return "\n".join(lines).rstrip()
+
+
+def _policy_report(s: dict[str, Any], p: dict[str, Any], name: str, markdown: bool) -> str:
+    c, sp = p["compared"], p["speed"]
     fig = "net cost" if s["objective"] == "net" else "cost"
     rows = [["policy", f"{fig} / vehicle-shift", "policy minus it (IQM)", "ratio"]]
     if "base" in c:
@@ -135,19 +168,14 @@ def distil_report(s: dict[str, Any], markdown: bool = False) -> str:
         rows.append(["Lagrangian bound (net)", f"{c['bound']['cost']:.3f}", "",
                      _iv(c["bound"]["ratio"])])  # fmt: skip
     iqm = c.get("base", {}).get("iqm")
-    n = len(s["seeds"])
-    lines = [f"Distilled planner, {s['predictor']}'s RUL, {n} seeds"
-             + (f": IQM {_iv(iqm)}" if iqm else ""), table(rows, markdown), ""]  # fmt: skip
+    lines = [f"{name}, {len(p['seeds'])} seeds" + (f": IQM {_iv(iqm)}" if iqm else ""),
+             table(rows, markdown), ""]  # fmt: skip
     if "gap_closed" in c:
         closed = c["gap_closed"]
         same = "The planner and the heuristic cost the same here: no gap to close"
         lines.append(f"Share of the heuristic-to-planner gap closed: {_iv(closed)}"
                      if np.isfinite(closed["point"]) else same)  # fmt: skip
-    rounds = ", ".join(f"round {r['round']}: {r['episodes']} episodes, driver agrees with the"
-                       f" planner on {r['driver_agreement']:.1%} of shifts"
-                       for r in lab["rounds"])  # fmt: skip
     lines += [
-        f"Labels (once, shared by the seeds): {lab['seconds']:.0f} s of CPU; {rounds}",
         f"Decision: planner {sp['planner_seconds_per_decision'] * 1e3:.1f} ms, policy"
         f" {sp['agent_seconds_per_decision'] * 1e3:.2f} ms ({sp['times_faster']:.0f}x faster)",
         "",
@@ -155,6 +183,6 @@ def distil_report(s: dict[str, Any], markdown: bool = False) -> str:
     seed_rows = [["seed", fig, "cost", "net", "failures", "agreement", "train s", "evaluate s"]]
     seed_rows += [[str(r["seed"]), f"{r['figure']:.3f}", f"{r['cost']:.3f}", f"{r['net']:.3f}",
                    f"{r['failures']:.2f}", f"{r['agreement']:.3f}", f"{r['train_seconds']:.0f}",
-                   f"{r['evaluate_seconds']:.0f}"] for r in s["seeds"]]  # fmt: skip
+                   f"{r['evaluate_seconds']:.0f}"] for r in p["seeds"]]  # fmt: skip
     lines.append(table(seed_rows, markdown))
     return "\n".join(lines)

@@ -120,25 +120,29 @@ def plot_terms(terms: Mapping[str, Mapping[str, float]], path: str | Path) -> Pa
 
 
 def plot_distil(summary: Mapping[str, Any], path: str | Path) -> Path:
-    """The distilled policy's seeds (each seed's mean on the evaluation episodes) between
-    the tuned heuristic, the rollout planner and the bound; its learning curves if PPO ran."""
-    seeds, c = summary["seeds"], summary["compared"]
-    curves = [r["curve"] for r in seeds if len(r["curve"].get("timesteps", [])) > 1]
+    """Each distilled policy's seeds (each seed's mean on the evaluation episodes) between
+    the tuned heuristic, the rollout planner and the bound; the central policy's learning
+    curves if PPO ran."""
+    kinds = [k for k in ("central", "shared") if k in summary]
+    curves = [r["curve"] for k in kinds for r in summary[k]["seeds"]
+              if len(r["curve"].get("timesteps", [])) > 1]  # fmt: skip
     fig = Figure(figsize=(9 if curves else 6, 4), layout="constrained")
     ax = fig.add_subplot(1, 2 if curves else 1, 1)
     fig_name = "net cost" if summary["objective"] == "net" else "cost"
-    y = [r["figure"] for r in seeds]
-    ax.scatter(np.zeros(len(y)) + np.linspace(-0.15, 0.15, len(y)), y, color="C0", zorder=3,
-               label="distilled policy (each seed)")  # fmt: skip
+    for x, kind in enumerate(kinds):
+        y = [r["figure"] for r in summary[kind]["seeds"]]
+        ax.scatter(x + np.linspace(-0.15, 0.15, len(y)), y, color=f"C{x}", zorder=3,
+                   label=f"{kind} policy (each seed)")  # fmt: skip
+    c = summary[kinds[0]]["compared"]
     for key, label, style in (("base", f"{summary['base']}, tuned", "--"),
                               ("planner", "rollout planner", "-."),
                               ("bound", "Lagrangian bound (net)", ":")):  # fmt: skip
         if key in c and (key != "bound" or summary["objective"] == "net"):
             ax.axhline(c[key]["cost"], color="k", ls=style, lw=1, label=label)
-    ax.set_xticks([])
-    ax.set_xlim(-0.5, 0.5)
+    ax.set_xticks(range(len(kinds)), kinds)
+    ax.set_xlim(-0.5, len(kinds) - 0.5)
     ax.set_ylabel(f"{fig_name} per vehicle-shift (evaluation episodes)")
-    ax.set_title(f"Distilled planner, {summary['predictor']}'s RUL")
+    ax.set_title(f"The planner distilled, {summary['predictor']}'s RUL")
     ax.legend(fontsize=7)
     if curves:
         ax2 = fig.add_subplot(1, 2, 2)

@@ -15,6 +15,7 @@ from scipy.stats import trim_mean
 from agents.fleet.evaluation.costs import gap_closed
 from agents.fleet.settings import DistilConfig, FleetStudyConfig, FleetTraining
 from agents.fleet.study import distil as distil_module
+from agents.fleet.study import distil_shared
 from agents.fleet.study.distil import Job, demo_of
 from agents.fleet.study.run import run_fleet_study
 from brake_env.cli.main import main
@@ -27,8 +28,9 @@ STUDY = FleetStudyConfig(
     eval_episodes=3, n_train_runs=2, rollout_predictors=("oracle",), rollout_horizon=3,
     rollout_samples=2, rollout_chunk=3, bound_iterations=2,
 )  # fmt: skip
-ARGS = ["--predictor", "oracle", "--seeds", "2", "--label-episodes", "2", "--label-rounds", "1",
-        "--label-chunk", "1", "--imitation-epochs", "2", "--workers", "0", "--quiet"]  # fmt: skip
+ARGS = ["--predictor", "oracle", "--seeds", "2", "--shared-seeds", "1", "--label-episodes", "2",
+        "--label-rounds", "1", "--label-chunk", "1", "--imitation-epochs", "2", "--workers", "0",
+        "--quiet"]  # fmt: skip
 
 
 def distil(study: object, out: object, args: list[str] = ARGS) -> int:
@@ -70,9 +72,10 @@ def test_the_labels_are_the_planner_s_own_decisions_and_dagger_is_driven_by_the_
 
 def test_every_seed_runs_the_study_s_episodes_and_the_figures_are_its_iqm(distilled) -> None:
     root, study, d = distilled
-    assert [s["seed"] for s in d["seeds"]] == [0, 1]
-    seed_means = np.array([s["figure"] for s in d["seeds"]])
-    c = d["compared"]
+    assert [s["seed"] for s in d["central"]["seeds"]] == [0, 1]
+    assert [s["seed"] for s in d["shared"]["seeds"]] == [0]
+    seed_means = np.array([s["figure"] for s in d["central"]["seeds"]])
+    c = d["central"]["compared"]
     assert c["base"]["iqm"]["point"] == pytest.approx(trim_mean(seed_means, 0.25))
     base = next(r for r in study["rows"] if r["policy"] == d["base"])
     assert c["base"]["cost"] == pytest.approx(np.mean(base["episodes"]["cost"]))
@@ -80,9 +83,16 @@ def test_every_seed_runs_the_study_s_episodes_and_the_figures_are_its_iqm(distil
         c["base"]["iqm"]["point"] - c["base"]["cost"]
     )
     assert c["bound"]["cost"] == pytest.approx(np.mean(study["bound"]["episodes"]))
-    assert d["speed"]["times_faster"] > 0 and d["labels"]["rounds"][0]["driver_agreement"] == 1.0
+    assert d["central"]["speed"]["times_faster"] > 0
+    assert d["labels"]["rounds"][0]["driver_agreement"] == 1.0
+    shared = d["shared"]["compared"]["base"]
+    assert shared["iqm"]["point"] == pytest.approx(d["shared"]["seeds"][0]["figure"])
     assert (root / "d" / "figures" / "distil.png").stat().st_size > 0
-    assert "Distilled planner" in (root / "d" / "report.md").read_text()
+    report = (root / "d" / "report.md").read_text()
+    assert (
+        "Central policy, 2 seeds" in report
+        and "shared by the vehicles (TorchRL), 1 seeds" in report
+    )
 
 
 def test_a_rerun_reads_every_unit(distilled, monkeypatch) -> None:
@@ -93,10 +103,12 @@ def test_a_rerun_reads_every_unit(distilled, monkeypatch) -> None:
 
     monkeypatch.setattr(distil_module, "label_unit", refuse)
     monkeypatch.setattr(distil_module, "seed_unit", refuse)
+    monkeypatch.setattr(distil_shared, "shared_seed_unit", refuse)
     assert (
         main(["fleet-distil", "--study", str(root / "study"), "--out", str(root / "d"), *ARGS]) == 0
     )
-    assert json.loads((root / "d" / "distil.json").read_text())["seeds"] == d["seeds"]
+    again = json.loads((root / "d" / "distil.json").read_text())
+    assert again["central"] == d["central"] and again["shared"] == d["shared"]
 
 
 def test_bad_input_gets_one_error_naming_it(distilled, tmp_path, capsys) -> None:
@@ -136,3 +148,19 @@ def test_another_ppo_budget_keeps_the_labels_and_not_the_seeds() -> None:
         t, imitation_epochs=7)), ("threshold", {}))  # fmt: skip
     assert a.label_keys(3) == b.label_keys(3) and a.seed_key(0) != b.seed_key(0)
     assert a.label_key(1, 0) != c.label_key(1, 0)  # the labelling clone's training changed
+
+
+def test_the_shared_policy_reads_a_label_as_the_pettingzoo_env_s_observation(atlas) -> None:
+    from agents.fleet.study.build import rul_env
+    from agents.fleet.study.distil_shared import hot_observation
+
+    job = Job(STUDY, DistilConfig(predictor="oracle"), ("threshold", {"threshold": 3.0}))
+    full = rul_env(STUDY, atlas, "oracle", None, job.fields)
+    hot = rul_env(STUDY, atlas, "oracle", None, ("rul_mean",), ("hot",))
+    rule = job.rule()
+    (a, _), (b, _) = full.reset(seed=3), hot.reset(seed=3)
+    for _ in range(STUDY.shifts):
+        assert np.array_equal(hot_observation(job, a), b)
+        action, _ = rule.predict(a)
+        a, *_ = full.step(action)
+        b, *_ = hot.step(action)

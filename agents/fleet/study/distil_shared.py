@@ -1,0 +1,94 @@
+"""The rollout planner distilled into a policy shared by every vehicle (issue 32, items 2-3):
+the same labels as the central policy (:mod:`.distil`), read as the PettingZoo env's
+per-vehicle views, cloned by TorchRL's networks (:mod:`agents.fleet.learning.marl_torch`).
+
+A label is the fleet's observation (every vehicle's hot- and mild-route RUL with its
+interval) and the planner's duty for each vehicle. The shared policy sees what
+:func:`~brake_env.env.fleet.agent_view.vehicle_views` gives a vehicle of the
+:class:`~brake_env.env.fleet.parallel.BrakeWearFleetParallelEnv`: its own state, the
+fleet's, the shift's needs and slots, the vehicles able to drive, its hot-route RUL and its
+rank by it. So each label gives one sample per vehicle: the hot-route RUL column of the
+observation, the rest as the env has it. Spares follow the base rule's (s, S), as the
+planner's do. The policy runs on the env with the predictor's hot-route RUL alone (the
+PettingZoo env's view) on the study's evaluation episodes, each decision timed.
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from agents.fleet.evaluation.costs import run_episodes
+from agents.fleet.learning.imitation import Demonstrations, concat
+from agents.fleet.settings import TRAIN_SEED0
+from agents.fleet.study.build import episodes_dict, rul_env
+from agents.fleet.study.distil import Job, Timed, demo_of, single_thread
+from brake_env.env.fleet.agent_view import vehicle_views
+from brake_env.env.fleet.spaces import FLEET_FEATURES, N_VF
+from brake_env.model.atlas import Atlas
+from brake_env.prognostics.protocol import Predictor
+
+
+def hot_observation(job: Job, obs: NDArray[Any]) -> NDArray[np.float64]:
+    """The fleet's observation with only the hot-route RUL appended (the PettingZoo env's)."""
+    lay = job.layout()
+    n, k = lay.n_vehicles, lay.per_vehicle
+    head = n * N_VF + len(FLEET_FEATURES)
+    col = lay.column("hot", "rul_mean")
+    assert col is not None
+    return np.concatenate([obs[:head], obs[head:].reshape(n, k)[:, col]])
+
+
+def recorded(job: Job, demo: Demonstrations) -> Any:
+    """The labels as per-vehicle samples (:class:`~agents.fleet.learning.marl_torch.Recorded`)."""
+    from agents.fleet.learning.marl_torch import Recorded
+
+    cfg = job.study.fleet
+    views = np.stack([vehicle_views(hot_observation(job, o), cfg, True) for o in demo.obs])
+    masks = demo.masks.reshape(len(demo.obs), cfg.n_vehicles, 4)
+    return Recorded(views, masks, demo.actions, demo.rewards, [int(s) for s in demo.starts])
+
+
+def shared_seed_unit(
+    job: Job, atlas: Atlas, fitted: Predictor | None, seed: int, labels: list[dict[str, Any]]
+) -> dict[str, Any]:
+    """One training seed of the shared policy: the clone of every label (TorchRL's networks,
+    masked cross-entropy), then the study's evaluation episodes with each decision timed."""
+    return single_thread(_shared, job, atlas, fitted, seed, labels)
+
+
+def _shared(
+    job: Job, atlas: Atlas, fitted: Predictor | None, seed: int, labels: list[dict[str, Any]]
+) -> dict[str, Any]:
+    from agents.fleet.learning.marl import MarlFleetPolicy, MarlTraining, standardise_stats
+    from agents.fleet.learning.marl_torch import fit_clone, make_networks
+    from brake_env.env.fleet.parallel import BrakeWearFleetParallelEnv
+
+    t0 = time.perf_counter()
+    tr = job.distil.training
+    st = MarlTraining(frames=0, imitation_episodes=1, imitation_epochs=tr.imitation_epochs,
+                      imitation_lr=tr.imitation_lr, hidden=tr.net_arch[-1],
+                      depth=len(tr.net_arch), seed=TRAIN_SEED0 + 100 * seed)  # fmt: skip
+    data = recorded(job, concat([demo_of(d) for d in labels]))
+    spares = job.training(0).reorder
+    predictor = fitted if fitted is not None else job.distil.predictor
+    par = BrakeWearFleetParallelEnv(job.study.fleet, predictor=predictor, spares=spares,
+                                    infos="none", atlas=atlas)  # fmt: skip
+    nets = make_networks(par, st, *standardise_stats(data.views))
+    agreement = fit_clone(nets, data, st)
+    assert par.spares is not None
+    policy = Timed(MarlFleetPolicy(nets.actor_net, job.study.fleet, par.spares))
+    train_s = time.perf_counter() - t0
+    env = rul_env(job.study, atlas, job.distil.predictor, fitted, ("rul_mean",), ("hot",))
+    eps = run_episodes(env, policy, job.study.eval_seeds(), check_masks=True)
+    return {
+        "predictor": job.distil.predictor, "seed": seed, "samples": int(data.actions.size),
+        "agreement": agreement, "nll": float("nan"),
+        "curve": {"timesteps": np.zeros(0), "cost": np.zeros(0)},
+        "episodes": episodes_dict(eps),
+        "seconds": {"train": train_s, "evaluate": time.perf_counter() - t0 - train_s},
+        "seconds_per_decision": policy.seconds / max(policy.calls, 1),
+    }  # fmt: skip
