@@ -23,7 +23,7 @@ from agents.fleet.commands.distil import read_study
 from agents.fleet.learning.agent import ReorderBy, train_on_labels
 from agents.fleet.learning.imitation import record
 from agents.fleet.settings import DistilConfig
-from agents.fleet.study.distil import Job
+from agents.fleet.study.distil_job import Job
 from agents.fleet.study.distil_summary import study_row
 from agents.fleet.study.units import fit_unit
 from brake_env.env.atlases import default_atlas

@@ -14,7 +14,8 @@ from typing import Any
 from tqdm import tqdm
 
 from agents.fleet.settings import DistilConfig, FleetStudyConfig
-from agents.fleet.study.distil import Job, run_distil
+from agents.fleet.study.distil import run_distil
+from agents.fleet.study.distil_job import Job
 from agents.fleet.study.distil_summary import distil_report, study_row, summarise_distil
 from agents.fleet.study.units import fit_unit
 from brake_env.cli.common import load_atlas, make_runner

@@ -21,7 +21,7 @@ from numpy.typing import NDArray
 from agents.fleet.evaluation.costs import figures, gap_closed, seeds_interval
 from agents.fleet.settings import Objective
 from agents.fleet.study.build import episodes_of
-from agents.fleet.study.distil import Job
+from agents.fleet.study.distil_job import Job
 from brake_env.output import table
 
 F64 = NDArray[np.float64]

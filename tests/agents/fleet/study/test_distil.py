@@ -15,8 +15,7 @@ from scipy.stats import trim_mean
 from agents.fleet.evaluation.costs import gap_closed
 from agents.fleet.settings import DistilConfig, FleetStudyConfig, FleetTraining
 from agents.fleet.study import distil as distil_module
-from agents.fleet.study import distil_shared
-from agents.fleet.study.distil import Job, demo_of
+from agents.fleet.study.distil_job import Job, demo_of
 from agents.fleet.study.run import run_fleet_study
 from brake_env.cli.main import main
 from brake_env.runner import Runner
@@ -103,7 +102,7 @@ def test_a_rerun_reads_every_unit(distilled, monkeypatch) -> None:
 
     monkeypatch.setattr(distil_module, "label_unit", refuse)
     monkeypatch.setattr(distil_module, "seed_unit", refuse)
-    monkeypatch.setattr(distil_shared, "shared_seed_unit", refuse)
+    monkeypatch.setattr(distil_module, "shared_seed_unit", refuse)
     assert (
         main(["fleet-distil", "--study", str(root / "study"), "--out", str(root / "d"), *ARGS]) == 0
     )
