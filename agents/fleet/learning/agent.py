@@ -43,6 +43,7 @@ from agents.fleet.policies.view import FleetLayout, FleetView
 from agents.fleet.settings import FleetTraining
 from brake_env.env.fleet.config import FleetConfig
 from brake_env.env.fleet.env import BrakeWearFleetEnv
+from brake_env.env.fleet.rules import fits_capacity
 from brake_env.env.fleet.shop import HOT, MILD, PARK, SERVICE
 from brake_env.env.fleet.wrappers import ExpectedRULObservation
 from brake_env.model.atlas import Atlas
@@ -85,17 +86,30 @@ class ReorderBy(gym.ActionWrapper[Any, NDArray[np.int64], NDArray[np.int64]]):
 
 
 def cover_needs(config: FleetConfig, duty: I64, view: FleetView, min_rul: float = 1.0) -> I64:
-    """The duties with the shift's needs covered from idle vehicles: while the hot route is
-    short of ``hot_need``, the parked vehicle able to drive with the most hot-route life
-    (at least ``min_rul`` shifts) joins it; then the mild route likewise (a vehicle on the
-    ramp beyond its need covers a drift). Nothing else changes: no vehicle leaves a route
-    or the shop, so a policy that already covers the needs, as every tuned rule and the
-    rollout planner do, acts unchanged (checked on the planner's labels). A policy that
-    decides each vehicle's duty on its own cannot count the vehicles the others send; a
-    shift short of a truck costs 2,000 and a wasted spare vehicle would cover it."""
+    """The duties made feasible for the fleet as a whole, in two steps that a policy deciding
+    each vehicle's duty on its own cannot take (it does not count what the others do):
+
+    1. **Services within capacity** between windows: the requests that the spares or the
+       free bays cannot take (the workshop would defer them and the vehicle lose a working
+       shift) are parked, the least urgent (most hot-route life) first; when only the bays
+       are short, among the vehicles that need one (a vehicle down in the shop needs none).
+       At a window nobody drives, and the workshop's deferral rule picks among requests.
+    2. **Needs covered**: while the hot route is short of ``hot_need``, the parked vehicle
+       able to drive with the most hot-route life (at least ``min_rul`` shifts) joins it;
+       then the mild route likewise (a vehicle on the ramp beyond its need covers a drift).
+
+    Nothing else changes, so a policy whose duties are feasible and cover the needs, as
+    every tuned rule and the rollout planner's are, acts unchanged (checked on the planner's
+    labels). A shift short of a ramp truck costs 2,000."""
     duty = np.array(duty, dtype=np.int64)
-    if view.window:
+    if view.window:  # nobody drives: the workshop's own deferral rule picks the fits
         return duty
+    fits = duty == SERVICE
+    while not fits_capacity(config, False, fits, view.down, view.stock, view.free_bays):
+        short_of_pads = int(fits.sum()) > view.stock
+        pool = np.flatnonzero(fits if short_of_pads else fits & ~view.down)  # else: bays
+        v = pool[np.argmax(view.rul[pool])]  # the least urgent (first of equals)
+        fits[v], duty[v] = False, PARK
     idle = np.flatnonzero((duty == PARK) & ~view.down & (view.rul >= min_rul))
     idle = idle[np.argsort(-view.rul[idle], kind="stable")]
     hot = int((duty == HOT).sum())
@@ -108,8 +122,8 @@ def cover_needs(config: FleetConfig, duty: I64, view: FleetView, min_rul: float 
 
 
 class CoverNeeds(gym.ActionWrapper[Any, NDArray[np.int64], NDArray[np.int64]]):
-    """The agent's duties with the needs covered (:func:`cover_needs`), read from the last
-    observation as ``layout`` says.
+    """The agent's duties made feasible for the fleet (:func:`cover_needs`), read from the
+    last observation as ``layout`` says.
 
     Args:
         env: BrakeWearFleet-v0 with the RUL ``layout`` describes.

@@ -162,6 +162,12 @@ def imitate(
     def flat(a: Any) -> Any:  # a Discrete policy takes (batch,) actions, not (batch, 1)
         return a[:, 0] if discrete else a
 
+    def evaluate(o: Any, a: Any, m: Any) -> tuple[Any, Any]:  # (values, log-probability)
+        if hasattr(policy, "evaluate_labels"):  # the vehicle network's fast path
+            return policy.evaluate_labels(o, a, m)
+        values, log_prob, _ = policy.evaluate_actions(o, flat(a), action_masks=m)
+        return values, log_prob
+
     policy.set_training_mode(True)
     params = [
         p for name, p in policy.named_parameters() if s.imitation_value or "value" not in name
@@ -172,9 +178,7 @@ def imitate(
     for _ in range(s.imitation_epochs):
         for idx in np.array_split(rng.permutation(n), max(1, n // s.batch_size)):
             i = th.as_tensor(idx)
-            values, log_prob, _ = policy.evaluate_actions(
-                obs[i], flat(acts[i]), action_masks=masks[i]
-            )
+            values, log_prob = evaluate(obs[i], acts[i], masks[i])
             loss = -log_prob.mean()
             if s.imitation_value:
                 loss = loss + 0.5 * th.nn.functional.mse_loss(values.flatten(), target[i])

@@ -10,7 +10,9 @@ DAgger round after it, a clone of every label so far (fitted from
 the planner labels the states the clone reaches, where a clone's mistakes take the fleet.
 The planner's order is the base rule's (s, S) on its services, so the policy decides
 duties and the order is that rule's (:class:`~agents.fleet.learning.agent.ReorderBy`):
-the labels are exact.
+the labels are exact. Each unit counts the labels that the policy's feasibility repair
+(:func:`~agents.fleet.learning.agent.cover_needs`) would change: the repair's cost to the
+planner's own decisions.
 
 **Each training seed** (:func:`seed_unit`): MaskablePPO cloned from all the labels (masked
 cross-entropy, the value head on their discounted returns), PPO for
@@ -31,8 +33,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agents.fleet.evaluation.costs import run_episodes
-from agents.fleet.learning.agent import ReorderBy, train_on_labels
+from agents.fleet.learning.agent import ReorderBy, cover_needs, train_on_labels
 from agents.fleet.learning.imitation import concat, record
+from agents.fleet.policies.view import FleetView
 from agents.fleet.settings import LABEL_SEED0, TRAIN_SEED0
 from agents.fleet.study.build import episodes_dict
 from agents.fleet.study.curve import LearningCurve, mean_cost
@@ -70,9 +73,13 @@ def _labels(
             return np.asarray(clone.predict(obs)[0][:-1], dtype=np.int64)
 
     demo = record(env, planner, seeds, drop_order=True, actor=actor)
+    lay, cfg = job.layout(), job.study.fleet
+    repaired = sum(not np.array_equal(cover_needs(cfg, a, FleetView.read(o, lay)), a)
+                   for o, a in zip(demo.obs, demo.actions, strict=True))  # fmt: skip
     return {
         **demo_dict(demo), "round": round_, "seeds": np.array(seeds),
         "planner_seconds": planner.seconds, "decisions": planner.calls,
+        "repaired": int(repaired),
         "agreement": float((demo.taken == demo.actions).all(axis=1).mean()),
         "seconds": time.perf_counter() - t0,
     }  # fmt: skip

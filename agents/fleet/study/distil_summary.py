@@ -115,7 +115,9 @@ def _labels(labels: list[dict[str, Any]]) -> dict[str, Any]:
     planner_s = sum(float(u["planner_seconds"]) for u in labels)
     decisions = sum(int(u["decisions"]) for u in labels)
     return {"rounds": per_round, "seconds": sum(float(u["seconds"]) for u in labels),
-            "planner_seconds_per_decision": planner_s / decisions}  # fmt: skip
+            "planner_seconds_per_decision": planner_s / decisions,
+            "repaired": sum(int(u.get("repaired", 0)) for u in labels),
+            "shifts": sum(len(u["rewards"]) for u in labels)}  # fmt: skip
 
 
 def _seed_row(u: dict[str, Any], eps: list[Any], objective: Objective) -> dict[str, Any]:
@@ -147,6 +149,8 @@ def distil_report(s: dict[str, Any], markdown: bool = False) -> str:
                        for r in lab["rounds"])  # fmt: skip
     lines = [f"The rollout planner on {s['base']} distilled, {s['predictor']}'s RUL",
              f"Labels (once, shared by every seed): {lab['seconds']:.0f} s of CPU; {rounds}",
+             f"The policies' feasibility repair (cover_needs) changes {lab['repaired']} of the"
+             f" planner's {lab['shifts']} labelled shifts",
              ""]  # fmt: skip
     for kind in ("central", "shared"):
         if kind in s:

@@ -56,6 +56,19 @@ def test_cover_needs_leaves_covered_shifts_windows_and_unable_vehicles_alone() -
     assert np.array_equal(got, idle)  # the one able vehicle has half a shift of life left
 
 
+def test_cover_needs_parks_the_services_beyond_capacity_least_urgent_first() -> None:
+    rul = [5.0, 1.0, 9.0, 3.0, 7.0] + [50.0] * 7
+    duty = np.array([SERVICE] * 5 + [PARK] * 7)
+    window = dataclasses.replace(_view(rul, to_window=0), stock=4)  # 3 crew slots, 4 spares
+    assert np.array_equal(cover_needs(DEFAULT, duty, window), duty)  # the workshop picks
+    between = dataclasses.replace(_view(rul, down=[False, False, True] + [False] * 9), stock=3)
+    got = cover_needs(DEFAULT, np.array([SERVICE] * 3 + [PARK] * 9), between)
+    assert list(np.flatnonzero(got == SERVICE)) == [1, 2]  # the one down needs no bay
+    short = dataclasses.replace(between, stock=1)  # one spare: the most urgent gets it
+    assert list(np.flatnonzero(cover_needs(DEFAULT, duty[:12].copy(), short) == SERVICE)) == [1]
+    assert got[0] == MILD  # parked, then it covers a drift (the healthiest six take the ramp)
+
+
 def test_cover_needs_is_the_identity_on_a_rule_along_an_episode(atlas) -> None:
     env = oracle_fleet_env(CFG, atlas)
     rule = FleetRule(FleetLayout.of(CFG), FleetRuleParams())
@@ -192,3 +205,16 @@ def test_the_numpy_actor_gives_the_torch_logits() -> None:
         want = Policy.action_net(Policy.mlp_extractor.forward_actor(x))[0].numpy()
     got = numpy_actor(Policy)(z)  # type: ignore[arg-type]
     assert np.allclose(got, want, atol=1e-5)
+
+
+def test_the_vehicle_policy_s_fast_evaluation_is_sb3_s(atlas, labels) -> None:
+    agent = train_on_labels(
+        lambda: oracle_fleet_env(CFG, atlas), FleetLayout.of(CFG), SETTINGS, labels
+    )
+    policy = agent.model.policy
+    obs = torch.as_tensor(agent.normalize(labels.obs))
+    acts, masks = torch.as_tensor(labels.actions), torch.as_tensor(labels.masks)
+    with torch.no_grad():
+        want_v, want_lp, _ = policy.evaluate_actions(obs, acts, action_masks=masks)
+        got_v, got_lp = policy.evaluate_labels(obs, acts, masks)
+    assert torch.allclose(got_v, want_v) and torch.allclose(got_lp, want_lp, atol=1e-5)
