@@ -67,7 +67,7 @@ class FleetTraining:
             policy is refitted on all the data (the clone's own mistakes lead to states
             the teacher never visits, e.g. a pad near failure).
         cover_needs: Cover each shift's needs from idle vehicles after the agent's duties
-            (:func:`~agents.fleet.learning.agent.cover_needs`), in training and when it acts.
+            (:func:`~agents.fleet.learning.dispatch.cover_needs`), in training and when it acts.
         vehicle_net: One network shared by the vehicles, each reading its own values, the
             fleet's and its rank (:mod:`~agents.fleet.learning.vehicle_net`; ``net_arch[-1]``
             units a layer); needs ``reorder``.
@@ -325,6 +325,9 @@ class DistilConfig:
         label_rounds: DAgger rounds after the planner's own episodes: a clone of every
             label so far (fitted from ``LABEL_SEED0``) drives, the planner labels.
         label_chunk: Episodes per labelling unit.
+        base_input: The base rule's duties are part of the policy's input (residual
+            learning: it learns where the planner departs from the rule, which it does on
+            about one shift in thirteen; :class:`~agents.fleet.learning.dispatch.BaseDuties`).
         training: Each seed's cloning (``imitation_*``, ``net_arch``, ``batch_size``) and
             PPO after it (``timesteps``, 0: the clone alone); its ``reorder`` is set from the
             base rule's (s, S), the planner's own order rule.
@@ -336,6 +339,7 @@ class DistilConfig:
     label_episodes: int = 16
     label_rounds: int = 2
     label_chunk: int = 8
+    base_input: bool = True
     training: FleetTraining = field(
         default_factory=lambda: FleetTraining(
             timesteps=0, imitation_episodes=1, imitation_epochs=40, imitation_lr=3e-3,
@@ -372,7 +376,7 @@ class DistilConfig:
             for name in PPO_ONLY:
                 training.pop(name)
         spec = {"rounds": self.label_rounds, "episodes": self.label_episodes,
-                "training": training}  # fmt: skip
+                "training": training, "base_input": self.base_input}  # fmt: skip
         return hashlib.sha256(json.dumps(spec, sort_keys=True).encode()).hexdigest()[:10]
 
 

@@ -25,12 +25,13 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from dataclasses import replace
-from typing import Any, SupportsFloat
+from typing import Any
 
 import gymnasium as gym
 import numpy as np
 from numpy.typing import NDArray
 
+from agents.fleet.learning.dispatch import BaseDuties, CoverNeeds, cover_needs, with_base_duties
 from agents.fleet.learning.imitation import (
     Demonstrations,
     Imitation,
@@ -43,8 +44,7 @@ from agents.fleet.policies.view import FleetLayout, FleetView
 from agents.fleet.settings import FleetTraining
 from brake_env.env.fleet.config import FleetConfig
 from brake_env.env.fleet.env import BrakeWearFleetEnv
-from brake_env.env.fleet.rules import fits_capacity
-from brake_env.env.fleet.shop import HOT, MILD, PARK, SERVICE
+from brake_env.env.fleet.shop import SERVICE
 from brake_env.env.fleet.wrappers import ExpectedRULObservation
 from brake_env.model.atlas import Atlas
 
@@ -85,77 +85,6 @@ class ReorderBy(gym.ActionWrapper[Any, NDArray[np.int64], NDArray[np.int64]]):
         return self.env.unwrapped.action_masks()[: 4 * self.n]  # type: ignore[attr-defined]
 
 
-def cover_needs(config: FleetConfig, duty: I64, view: FleetView, min_rul: float = 1.0) -> I64:
-    """The duties made feasible for the fleet as a whole, in two steps that a policy deciding
-    each vehicle's duty on its own cannot take (it does not count what the others do):
-
-    1. **Services within capacity** between windows: the requests that the spares or the
-       free bays cannot take (the workshop would defer them and the vehicle lose a working
-       shift) are parked, the least urgent (most hot-route life) first; when only the bays
-       are short, among the vehicles that need one (a vehicle down in the shop needs none).
-       At a window nobody drives, and the workshop's deferral rule picks among requests.
-    2. **Needs covered**: while the hot route is short of ``hot_need``, the parked vehicle
-       able to drive with the most hot-route life (at least ``min_rul`` shifts) joins it;
-       then the mild route likewise (a vehicle on the ramp beyond its need covers a drift).
-
-    Nothing else changes, so a policy whose duties are feasible and cover the needs, as
-    every tuned rule and the rollout planner's are, acts unchanged (checked on the planner's
-    labels). A shift short of a ramp truck costs 2,000."""
-    duty = np.array(duty, dtype=np.int64)
-    if view.window:  # nobody drives: the workshop's own deferral rule picks the fits
-        return duty
-    fits = duty == SERVICE
-    while not fits_capacity(config, False, fits, view.down, view.stock, view.free_bays):
-        short_of_pads = int(fits.sum()) > view.stock
-        pool = np.flatnonzero(fits if short_of_pads else fits & ~view.down)  # else: bays
-        v = pool[np.argmax(view.rul[pool])]  # the least urgent (first of equals)
-        fits[v], duty[v] = False, PARK
-    idle = np.flatnonzero((duty == PARK) & ~view.down & (view.rul >= min_rul))
-    idle = idle[np.argsort(-view.rul[idle], kind="stable")]
-    hot = int((duty == HOT).sum())
-    k = max(config.hot_need - hot, 0)
-    duty[idle[:k]] = HOT
-    hot, idle = hot + len(idle[:k]), idle[k:]
-    k = max(config.mild_need - int((duty == MILD).sum()) - max(hot - config.hot_need, 0), 0)
-    duty[idle[:k]] = MILD
-    return duty
-
-
-class CoverNeeds(gym.ActionWrapper[Any, NDArray[np.int64], NDArray[np.int64]]):
-    """The agent's duties made feasible for the fleet (:func:`cover_needs`), read from the
-    last observation as ``layout`` says.
-
-    Args:
-        env: BrakeWearFleet-v0 with the RUL ``layout`` describes.
-        layout: Where the RUL is in the observation.
-    """
-
-    def __init__(self, env: gym.Env[Any, NDArray[np.int64]], layout: FleetLayout) -> None:
-        super().__init__(env)
-        self.layout = layout
-        self._view: FleetView | None = None
-
-    def reset(self, **kwargs: Any) -> tuple[Any, dict[str, Any]]:
-        obs, info = self.env.reset(**kwargs)
-        self._view = FleetView.read(obs, self.layout)
-        return obs, info
-
-    def step(
-        self, action: NDArray[np.int64]
-    ) -> tuple[Any, SupportsFloat, bool, bool, dict[str, Any]]:
-        obs, reward, terminated, truncated, info = super().step(action)
-        self._view = FleetView.read(obs, self.layout)
-        return obs, reward, terminated, truncated, info
-
-    def action(self, action: NDArray[np.int64]) -> NDArray[np.int64]:
-        if self._view is None:
-            raise RuntimeError("CoverNeeds: step before reset")
-        a = np.array(action, dtype=np.int64)
-        n = self.layout.n_vehicles
-        a[:n] = cover_needs(self.layout.config, a[:n], self._view)
-        return a
-
-
 class FrozenAgent:
     """A trained MaskablePPO and its observation statistics, frozen at the end of training
     (SB3's ``VecNormalize``: ``(obs - mean) / sqrt(var + 1e-8)``, clipped).
@@ -185,14 +114,15 @@ class FleetAgent(FrozenAgent):
         model, layout, obs_mean, obs_var, clip: As :class:`FrozenAgent`'s.
         reorder: The (s, S) it was trained with (:class:`ReorderBy`), if any.
         cover: Whether its duties go through :func:`cover_needs` (as in training).
+        base: The rule whose duties its input carries (:class:`BaseDuties`), if any.
     """
 
     def __init__(
         self, model: Any, layout: FleetLayout, obs_mean: F32, obs_var: F32, clip: float = 10.0,
-        *, reorder: tuple[int, int] | None = None, cover: bool = False,
+        *, reorder: tuple[int, int] | None = None, cover: bool = False, base: Any = None,
     ) -> None:  # fmt: skip
         super().__init__(model, layout, obs_mean, obs_var, clip)
-        self.reorder, self.cover = reorder, cover
+        self.reorder, self.cover, self.base = reorder, cover, base
         self.name = "MaskablePPO"
 
     def predict(
@@ -207,10 +137,11 @@ class FleetAgent(FrozenAgent):
         mask = view.mask(self.layout.max_order)
         if self.reorder is not None:
             mask = mask[: 4 * self.layout.n_vehicles]
+        x = obs if self.base is None else with_base_duties(obs, self.base, self.layout.n_vehicles)
         if deterministic:
-            action = self.mode(self.normalize(obs), mask)
+            action = self.mode(self.normalize(x), mask)
         else:
-            action, _ = self.model.predict(self.normalize(obs), action_masks=mask)
+            action, _ = self.model.predict(self.normalize(x), action_masks=mask)
         action = np.asarray(action, dtype=np.int64)
         if self.cover:
             n = self.layout.n_vehicles
@@ -289,8 +220,9 @@ def train_fleet_agent(
 
 
 def build_model(
-    make_env: Callable[[], gym.Env[Any, Any]], settings: FleetTraining, layout: FleetLayout
-) -> tuple[Any, Any]:
+    make_env: Callable[[], gym.Env[Any, Any]], settings: FleetTraining, layout: FleetLayout,
+    base: Any = None,
+) -> tuple[Any, Any]:  # fmt: skip
     """MaskablePPO on ``settings.n_envs`` training copies of ``make_env()`` (each masked by
     its base env's :meth:`action_masks`, rewards scaled, spares by ``settings.reorder`` if
     set, needs covered if ``settings.cover_needs``), under SB3's ``VecNormalize``: (model,
@@ -307,6 +239,8 @@ def build_model(
             env = CoverNeeds(env, layout)
         if s.reorder is not None:
             env = ReorderBy(env, *s.reorder)
+        if base is not None:
+            env = BaseDuties(env, base)
         env = gym.wrappers.TransformReward(env, lambda r: float(r) * s.reward_scale)
         return ActionMasker(env, lambda e: e.get_wrapper_attr("action_masks")())
 
@@ -320,7 +254,8 @@ def build_model(
         if s.reorder is None:
             raise ValueError("build_model: vehicle_net decides duties only; set reorder")
         policy = VehiclePolicy
-        kwargs = {"vehicles": VehicleLayout.of(layout), "hidden": s.net_arch[-1]}
+        extra = 0 if base is None else 4
+        kwargs = {"vehicles": VehicleLayout.of(layout, extra), "hidden": s.net_arch[-1]}
     model = MaskablePPO(
         policy, venv, learning_rate=s.learning_rate, n_steps=s.n_steps,
         batch_size=s.batch_size, n_epochs=s.n_epochs, ent_coef=s.ent_coef, gamma=s.gamma,
@@ -331,7 +266,7 @@ def build_model(
 
 def train_on_labels(
     make_env: Callable[[], gym.Env[Any, Any]], layout: FleetLayout, settings: FleetTraining,
-    labels: Demonstrations, callback: Any = None,
+    labels: Demonstrations, callback: Any = None, *, base: Any = None,
 ) -> FleetAgent:  # fmt: skip
     """MaskablePPO cloned from ``labels`` recorded once elsewhere (an expert's actions on
     states that any actor reached, the env's rewards unscaled:
@@ -341,33 +276,38 @@ def train_on_labels(
     (``imitation_epochs``, ``imitation_lr``, ``imitation_value``) from ``settings.seed``, so
     seeds differ in the network's start and the order of the minibatches only. With
     ``settings.vehicle_net`` the observation statistics are pooled over vehicles and frozen
-    (:mod:`~agents.fleet.learning.vehicle_net`)."""
+    (:mod:`~agents.fleet.learning.vehicle_net`). With a ``base`` rule its duties are part of
+    the input (:class:`BaseDuties`): the policy learns where the expert departs from it."""
     t0 = time.perf_counter()
-    model, venv = build_model(make_env, settings, layout)
+    model, venv = build_model(make_env, settings, layout, base)
     labels = replace(labels, rewards=labels.rewards * settings.reward_scale)
+    if base is not None:
+        n = layout.n_vehicles
+        labels = replace(labels, obs=np.stack([with_base_duties(o, base, n) for o in labels.obs]))
     venv.obs_rms.update(labels.obs)
     if settings.vehicle_net:  # ranks compare vehicles: one scale per feature, kept in PPO
         from agents.fleet.learning.vehicle_net import VehicleLayout, pool_vehicle_stats
 
-        pool_vehicle_stats(venv.obs_rms.mean, venv.obs_rms.var, VehicleLayout.of(layout))
+        lay = VehicleLayout.of(layout, 0 if base is None else 4)
+        pool_vehicle_stats(venv.obs_rms.mean, venv.obs_rms.var, lay)
         venv.training = False
     returns = discounted_returns(labels, settings.gamma, venv, settings.normalize_reward)
     agreement, nll = imitate(model, venv, labels, returns, settings, settings.seed)
     episodes = len(labels.starts)
     done = Imitation(episodes, 0, len(labels.rewards), agreement, float("nan"), nll,
                      time.perf_counter() - t0)  # fmt: skip
-    return _finish(model, venv, layout, settings, callback, done)
+    return _finish(model, venv, layout, settings, callback, done, base=base)
 
 
 def _finish(
     model: Any, venv: Any, layout: FleetLayout, s: FleetTraining, callback: Any,
-    imitation: Imitation | None,
+    imitation: Imitation | None, *, base: Any = None,
 ) -> FleetAgent:  # fmt: skip
     """PPO for ``s.timesteps`` shifts, then the agent with its statistics frozen."""
     if s.timesteps > 0:
         model.learn(total_timesteps=s.timesteps, callback=callback)
     rms: Any = venv.obs_rms  # one RunningMeanStd: the observation is a Box
     mean, var = rms.mean.astype(np.float32), rms.var.astype(np.float32)
-    agent = FleetAgent(model, layout, mean, var, reorder=s.reorder, cover=s.cover_needs)
+    agent = FleetAgent(model, layout, mean, var, reorder=s.reorder, cover=s.cover_needs, base=base)
     agent.imitation = imitation
     return agent

@@ -40,28 +40,35 @@ class VehicleLayout:
         n: Vehicles.
         k: Values appended per vehicle (the RUL fields).
         hot, mild: Columns of the hot- and mild-route RUL among the appended values.
+        extra: Values per vehicle after those (the base rule's duty, one-hot:
+            :class:`~agents.fleet.learning.dispatch.BaseDuties`), at the observation's end.
     """
 
     n: int
     k: int
     hot: int
     mild: int
+    extra: int = 0
 
     @classmethod
-    def of(cls, layout: FleetLayout) -> VehicleLayout:
+    def of(cls, layout: FleetLayout, extra: int = 0) -> VehicleLayout:
         hot, mild = layout.column("hot", layout.rul_field), layout.column("mild", layout.rul_field)
         assert hot is not None, "the layout has no hot-route RUL"
-        return cls(layout.n_vehicles, layout.per_vehicle, hot, hot if mild is None else mild)
+        return cls(layout.n_vehicles, layout.per_vehicle, hot, hot if mild is None else mild,
+                   extra)  # fmt: skip
 
     @property
     def nf(self) -> int:
         return len(FLEET_FEATURES)
 
-    def split(self, x: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
-        """(vehicle features (B, n, N_VF), fleet features (B, nf), appended (B, n, k))."""
+    def split(self, x: torch.Tensor) -> tuple[torch.Tensor, ...]:
+        """(vehicle features (B, n, N_VF), fleet features (B, nf), appended (B, n, k), extra
+        (B, n, extra))."""
         a, b = self.n * N_VF, self.n * N_VF + self.nf
-        return (x[:, :a].reshape(-1, self.n, N_VF), x[:, a:b],
-                x[:, b:].reshape(-1, self.n, self.k))  # fmt: skip
+        c = b + self.n * self.k
+        n, rows = self.n, x.shape[0]
+        return (x[:, :a].reshape(rows, n, N_VF), x[:, a:b], x[:, b:c].reshape(rows, n, self.k),
+                x[:, c:].reshape(rows, n, self.extra))  # fmt: skip
 
 
 def _share_below(x: torch.Tensor) -> torch.Tensor:
@@ -76,7 +83,7 @@ class VehicleExtractor(nn.Module):
     def __init__(self, lay: VehicleLayout, hidden: int) -> None:
         super().__init__()
         self.lay, self.hidden = lay, hidden
-        d = N_VF + lay.k + lay.nf + 2
+        d = N_VF + lay.k + lay.nf + 2 + lay.extra
 
         def net() -> nn.ModuleList:
             first = nn.Sequential(nn.Linear(d, hidden), nn.Tanh())
@@ -86,11 +93,11 @@ class VehicleExtractor(nn.Module):
         self.latent_dim_pi, self.latent_dim_vf = lay.n * hidden, hidden
 
     def _vehicles(self, x: torch.Tensor, layers: nn.ModuleList) -> torch.Tensor:
-        own, fleet, app = self.lay.split(x)
+        own, fleet, app, extra = self.lay.split(x)
         ranks = torch.stack([_share_below(app[..., self.lay.hot]),
                              _share_below(app[..., self.lay.mild])], dim=-1)  # fmt: skip
         fleet = fleet[:, None, :].expand(-1, self.lay.n, -1)
-        h = layers[0](torch.cat([own, app, fleet, ranks], dim=-1))
+        h = layers[0](torch.cat([own, app, fleet, ranks, extra], dim=-1))
         return layers[1](torch.cat([h, h.mean(dim=1, keepdim=True).expand_as(h)], dim=-1))
 
     def forward_actor(self, x: torch.Tensor) -> torch.Tensor:
@@ -177,15 +184,19 @@ def numpy_actor(policy: VehiclePolicy) -> Callable[[NDArray[np.float32]], NDArra
     # the first layer's input is [own, appended, fleet, ranks]: one product per block, the
     # fleet's (the same for every vehicle) folded into the bias once per decision
     w_own, w_app = w1[:N_VF], w1[N_VF : N_VF + lay.k]
-    w_fleet, w_rank = w1[N_VF + lay.k : N_VF + lay.k + lay.nf], w1[N_VF + lay.k + lay.nf :]
+    r0 = N_VF + lay.k + lay.nf
+    w_fleet, w_rank, w_extra = w1[N_VF + lay.k : r0], w1[r0 : r0 + 2], w1[r0 + 2 :]
+    c = b + lay.n * lay.k
     w2_own, w2_mean = w2[:h], w2[h:]
     scale = np.float32(1.0 / max(lay.n - 1, 1))
 
     def logits(z: NDArray[np.float32]) -> NDArray[np.float32]:
-        own, app = z[:a].reshape(lay.n, N_VF), z[b:].reshape(lay.n, lay.k)
+        own, app = z[:a].reshape(lay.n, N_VF), z[b:c].reshape(lay.n, lay.k)
         hot, mild = app[:, lay.hot], app[:, lay.mild]
         ranks = np.stack([(hot[:, None] > hot).sum(1), (mild[:, None] > mild).sum(1)], 1)
         x = own @ w_own + app @ w_app + (ranks * scale) @ w_rank + (z[a:b] @ w_fleet + b1)
+        if lay.extra:
+            x = x + z[c:].reshape(lay.n, lay.extra) @ w_extra
         h1 = np.tanh(x)
         h2 = np.tanh(h1 @ w2_own + (h1.mean(0) @ w2_mean + b2))
         return (h2 @ wh + bh).ravel()
@@ -198,7 +209,10 @@ def pool_vehicle_stats(mean: NDArray[Any], var: NDArray[Any], lay: VehicleLayout
     copies (the mean of the means; the mean variance plus the variance of the means), so
     that normalised values compare across vehicles."""
     a, b = lay.n * N_VF, lay.n * N_VF + lay.nf
-    for lo, hi, width in ((0, a, N_VF), (b, len(mean), lay.k)):
+    c = b + lay.n * lay.k
+    for lo, hi, width in ((0, a, N_VF), (b, c, lay.k), (c, len(mean), lay.extra)):
+        if width == 0:
+            continue
         m = mean[lo:hi].reshape(lay.n, width).copy()  # copies: the slices are overwritten
         v = var[lo:hi].reshape(lay.n, width).copy()
         mean[lo:hi] = np.tile(m.mean(axis=0), lay.n)

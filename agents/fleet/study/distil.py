@@ -11,7 +11,7 @@ the planner labels the states the clone reaches, where a clone's mistakes take t
 The planner's order is the base rule's (s, S) on its services, so the policy decides
 duties and the order is that rule's (:class:`~agents.fleet.learning.agent.ReorderBy`):
 the labels are exact. Each unit counts the labels that the policy's feasibility repair
-(:func:`~agents.fleet.learning.agent.cover_needs`) would change: the repair's cost to the
+(:func:`~agents.fleet.learning.dispatch.cover_needs`) would change: the repair's cost to the
 planner's own decisions.
 
 **Each training seed** (:func:`seed_unit`): MaskablePPO cloned from all the labels (masked
@@ -33,7 +33,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agents.fleet.evaluation.costs import run_episodes
-from agents.fleet.learning.agent import ReorderBy, cover_needs, train_on_labels
+from agents.fleet.learning.agent import ReorderBy, train_on_labels
+from agents.fleet.learning.dispatch import cover_needs
 from agents.fleet.learning.imitation import concat, record
 from agents.fleet.policies.view import FleetView
 from agents.fleet.settings import LABEL_SEED0, TRAIN_SEED0
@@ -92,7 +93,8 @@ def labelling_clone(
     :data:`LABEL_SEED0` (the same clone in every unit of the round)."""
     st = replace(job.training(LABEL_SEED0), timesteps=0)
     labels = concat([demo_of(d) for d in earlier])
-    return train_on_labels(lambda: job.env(atlas, fitted), job.layout(), st, labels)
+    return train_on_labels(lambda: job.env(atlas, fitted), job.layout(), st, labels,
+                           base=job.base_input())  # fmt: skip
 
 
 def seed_unit(
@@ -110,11 +112,11 @@ def _seed(
 
     t0 = time.perf_counter()
     st = job.training(TRAIN_SEED0 + 100 * seed)
-    lay, study = job.layout(), job.study
+    lay, study, base = job.layout(), job.study, job.base_input()
     curve_env = job.env(atlas, fitted)
 
     def agent_at(m: Any, mean: Any, var: Any) -> Any:
-        return FleetAgent(m, lay, mean, var, reorder=st.reorder, cover=st.cover_needs)
+        return FleetAgent(m, lay, mean, var, reorder=st.reorder, cover=st.cover_needs, base=base)
 
     def cost_at(m: Any, mean: Any, var: Any) -> float:
         return mean_cost(curve_env, agent_at(m, mean, var), study)
@@ -122,7 +124,7 @@ def _seed(
     curve = LearningCurve(study.curve_every, cost_at)
     data = concat([demo_of(d) for d in labels])
     agent = train_on_labels(lambda: job.env(atlas, fitted), lay, st, data,
-                            curve.callback() if st.timesteps else None)  # fmt: skip
+                            curve.callback() if st.timesteps else None, base=base)  # fmt: skip
     train_s = time.perf_counter() - t0
     timed = Timed(agent)
     eps = run_episodes(job.env(atlas, fitted), timed, study.eval_seeds(), check_masks=True)

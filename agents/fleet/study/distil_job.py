@@ -59,6 +59,10 @@ class Job:
         trial = optuna.trial.FixedTrial(params)
         return SPACES[name](trial, self.layout(), self.study.fleet.window_period)
 
+    def base_input(self) -> Any:
+        """The rule whose duties the policy reads (None without ``base_input``)."""
+        return self.rule() if self.distil.base_input else None
+
     def training(self, seed: int) -> Any:
         """A seed's training, spares by the base rule's (s, S) (the planner's order)."""
         p = self.rule().params

@@ -10,7 +10,8 @@ import dataclasses
 import numpy as np
 import pytest
 
-from agents.fleet.learning.agent import ReorderBy, cover_needs, oracle_fleet_env, train_on_labels
+from agents.fleet.learning.agent import ReorderBy, oracle_fleet_env, train_on_labels
+from agents.fleet.learning.dispatch import cover_needs
 from agents.fleet.learning.imitation import record
 from agents.fleet.policies.rules import FleetRule, FleetRuleParams
 from agents.fleet.policies.view import FleetLayout, FleetView
@@ -107,20 +108,19 @@ def test_pooled_statistics_are_one_per_feature_and_pool_the_spread() -> None:
 def test_the_vehicle_network_is_permutation_equivariant() -> None:
     from agents.fleet.learning.vehicle_net import VehicleExtractor, VehicleHead, VehicleLayout
 
-    lay = VehicleLayout.of(_lay())
+    lay = VehicleLayout.of(_lay(), extra=4)
     torch.manual_seed(0)
     net, head = VehicleExtractor(lay, 16), VehicleHead(lay.n, 16, 4)
     rng = np.random.default_rng(1)
     own, fleet = rng.normal(size=(lay.n, N_VF)), rng.normal(size=len(FLEET_FEATURES))
-    app = rng.normal(size=(lay.n, lay.k))
+    app, extra = rng.normal(size=(lay.n, lay.k)), np.eye(4)[rng.integers(0, 4, lay.n)]
     perm = rng.permutation(lay.n)
 
-    def flat(o: np.ndarray, a: np.ndarray) -> torch.Tensor:
-        return torch.as_tensor(
-            np.concatenate([o.ravel(), fleet, a.ravel()])[None], dtype=torch.float32
-        )
+    def flat(o: np.ndarray, a: np.ndarray, e: np.ndarray) -> torch.Tensor:
+        x = np.concatenate([o.ravel(), fleet, a.ravel(), e.ravel()])
+        return torch.as_tensor(x[None], dtype=torch.float32)
 
-    x, y = flat(own, app), flat(own[perm], app[perm])
+    x, y = flat(own, app, extra), flat(own[perm], app[perm], extra[perm])
     with torch.no_grad():
         lx, ly = (
             head(net.forward_actor(x)).reshape(lay.n, 4),
@@ -191,14 +191,14 @@ def test_the_numpy_actor_gives_the_torch_logits() -> None:
         numpy_actor,
     )
 
-    lay = VehicleLayout.of(_lay())
+    lay = VehicleLayout.of(_lay(), extra=4)
 
     class Policy:  # the two modules numpy_actor reads
         mlp_extractor = VehicleExtractor(lay, 16)
         action_net = VehicleHead(lay.n, 16, 4)
 
     rng = np.random.default_rng(2)
-    z = rng.normal(size=lay.n * (N_VF + lay.k) + lay.nf).astype(np.float32)
+    z = rng.normal(size=lay.n * (N_VF + lay.k + lay.extra) + lay.nf).astype(np.float32)
     z[-lay.k :: -lay.k] = z[-lay.k]  # ties in a RUL column: ranks of equals
     with torch.no_grad():
         x = torch.as_tensor(z[None])
@@ -218,3 +218,31 @@ def test_the_vehicle_policy_s_fast_evaluation_is_sb3_s(atlas, labels) -> None:
         want_v, want_lp, _ = policy.evaluate_actions(obs, acts, action_masks=masks)
         got_v, got_lp = policy.evaluate_labels(obs, acts, masks)
     assert torch.allclose(got_v, want_v) and torch.allclose(got_lp, want_lp, atol=1e-5)
+
+
+def test_the_base_rule_s_duties_are_appended_one_hot_by_the_wrapper_and_the_agent(atlas) -> None:
+    from agents.fleet.learning.dispatch import BaseDuties, with_base_duties
+
+    rule = FleetRule(FleetLayout.of(CFG), FleetRuleParams(s=1, S=2))
+    env = BaseDuties(oracle_fleet_env(CFG, atlas), rule)
+    plain = oracle_fleet_env(CFG, atlas)
+    (got, _), (obs, _) = env.reset(seed=9), plain.reset(seed=9)
+    for _ in range(5):
+        duty = rule.predict(obs)[0][: CFG.n_vehicles]
+        assert np.array_equal(got[: len(obs)], obs.astype(np.float32))
+        assert np.array_equal(got[len(obs) :].reshape(-1, 4).argmax(1), duty)
+        assert np.allclose(with_base_duties(obs, rule, CFG.n_vehicles), got)
+        assert env.observation_space.contains(got)
+        action = rule.predict(obs)[0]
+        got, *_ = env.step(action)
+        obs, *_ = plain.step(action)
+
+
+def test_a_policy_reading_the_base_duties_clones_and_acts_on_the_plain_observation(atlas, labels):
+    rule = FleetRule(FleetLayout.of(CFG), FleetRuleParams(s=1, S=2))
+    st = dataclasses.replace(SETTINGS, imitation_epochs=100)
+    agent = train_on_labels(lambda: oracle_fleet_env(CFG, atlas), FleetLayout.of(CFG), st, labels,
+                            base=rule)  # fmt: skip
+    assert agent.mean.shape == (len(labels.obs[0]) + 4 * CFG.n_vehicles,)
+    same = [np.array_equal(agent.predict(o)[0], rule.predict(o)[0]) for o in labels.obs]
+    assert np.mean(same) > 0.9  # the labels are the rule's own: it learns to copy its input
