@@ -342,7 +342,7 @@ class DistilConfig:
     base_input: bool = True
     training: FleetTraining = field(
         default_factory=lambda: FleetTraining(
-            timesteps=0, imitation_episodes=1, imitation_epochs=40, imitation_lr=3e-3,
+            timesteps=0, imitation_episodes=1, imitation_epochs=120, imitation_lr=3e-3,
             batch_size=128, normalize_reward=True, cover_needs=True, vehicle_net=True,
             net_arch=(128, 128),
         )

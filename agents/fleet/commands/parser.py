@@ -150,7 +150,7 @@ def _register_distil(sub: argparse._SubParsersAction[Any]) -> None:
         help="episodes a unit (each unit of a DAgger round refits the round's clone)",
     )  # fmt: skip
     f.add_argument("--timesteps", type=int_at_least(0), default=0, help="PPO after cloning")
-    f.add_argument("--imitation-epochs", type=int_at_least(1), default=40)
+    f.add_argument("--imitation-epochs", type=int_at_least(1), default=120)
     f.add_argument("--imitation-lr", type=POSITIVE, default=3e-3, help="Adam's, for the cloning")
     f.add_argument("--learning-rate", type=POSITIVE, default=1e-4, help="PPO's")
     f.add_argument("--ent-coef", type=NONNEGATIVE, default=0.0, help="PPO's entropy coefficient")
