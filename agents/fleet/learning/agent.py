@@ -133,18 +133,17 @@ class FleetAgent(FrozenAgent):
         deterministic: bool = True,
     ) -> tuple[NDArray[np.int64], Any]:
         obs = np.asarray(observation, dtype=np.float64)
-        view = FleetView.read(obs, self.layout)
+        view, n = FleetView.read(obs, self.layout), self.layout.n_vehicles
         mask = view.mask(self.layout.max_order)
         if self.reorder is not None:
-            mask = mask[: 4 * self.layout.n_vehicles]
-        x = obs if self.base is None else with_base_duties(obs, self.base, self.layout.n_vehicles)
+            mask = mask[: 4 * n]
+        x = obs if self.base is None else with_base_duties(obs, self.base, n, view)
         if deterministic:
             action = self.mode(self.normalize(x), mask)
         else:
             action, _ = self.model.predict(self.normalize(x), action_masks=mask)
         action = np.asarray(action, dtype=np.int64)
         if self.cover:
-            n = self.layout.n_vehicles
             action = np.concatenate([cover_needs(self.layout.config, action[:n], view),
                                      action[n:]])  # fmt: skip
         if self.reorder is not None:

@@ -90,10 +90,14 @@ class CoverNeeds(gym.ActionWrapper[Any, NDArray[np.int64], NDArray[np.int64]]):
         return a
 
 
-def with_base_duties(obs: NDArray[Any], rule: Any, n: int) -> NDArray[np.float64]:
+def with_base_duties(
+    obs: NDArray[Any], rule: Any, n: int, view: FleetView | None = None
+) -> NDArray[np.float64]:
     """``obs`` with ``rule``'s duty for each vehicle appended, one-hot (n x 4) at the end:
-    the input of a policy that learns where to depart from that rule (residual learning)."""
-    duty = np.asarray(rule.predict(obs)[0][:n], dtype=np.int64)
+    the input of a policy that learns where to depart from that rule (residual learning).
+    ``view``: the observation read already (the rule then acts on it directly)."""
+    action = rule.predict(obs)[0] if view is None else rule.act(view)
+    duty = np.asarray(action[:n], dtype=np.int64)
     return np.concatenate([np.asarray(obs, dtype=np.float64), np.eye(4)[duty].ravel()])
 
 

@@ -232,6 +232,8 @@ def test_the_base_rule_s_duties_are_appended_one_hot_by_the_wrapper_and_the_agen
         assert np.array_equal(got[: len(obs)], obs.astype(np.float32))
         assert np.array_equal(got[len(obs) :].reshape(-1, 4).argmax(1), duty)
         assert np.allclose(with_base_duties(obs, rule, CFG.n_vehicles), got)
+        view = FleetView.read(obs, rule.layout)  # the agent's path: the view read once
+        assert np.allclose(with_base_duties(obs, rule, CFG.n_vehicles, view), got)
         assert env.observation_space.contains(got)
         action = rule.predict(obs)[0]
         got, *_ = env.step(action)
