@@ -44,10 +44,14 @@ def cover_needs(config: FleetConfig, duty: I64, view: FleetView, min_rul: float 
         pool = np.flatnonzero(fits if short_of_pads else fits & ~view.down)  # else: bays
         v = pool[np.argmax(view.rul[pool])]  # the least urgent (first of equals)
         fits[v], duty[v] = False, PARK
+    counts = np.bincount(duty, minlength=4)
+    hot = int(counts[HOT])
+    short_hot = max(config.hot_need - hot, 0)
+    if short_hot == 0 and counts[MILD] + hot - config.hot_need >= config.mild_need:
+        return duty  # covered already (most shifts)
     idle = np.flatnonzero((duty == PARK) & ~view.down & (view.rul >= min_rul))
     idle = idle[np.argsort(-view.rul[idle], kind="stable")]
-    hot = int((duty == HOT).sum())
-    k = max(config.hot_need - hot, 0)
+    k = short_hot
     duty[idle[:k]] = HOT
     hot, idle = hot + len(idle[:k]), idle[k:]
     k = max(config.mild_need - int((duty == MILD).sum()) - max(hot - config.hot_need, 0), 0)

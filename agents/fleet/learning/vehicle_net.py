@@ -170,7 +170,7 @@ class VehiclePolicy(MaskableActorCriticPolicy):
 def numpy_actor(policy: VehiclePolicy) -> Callable[[NDArray[np.float32]], NDArray[np.float32]]:
     """The actor's logits for one normalised observation, in numpy with the weights as they
     are now (a frozen policy): the same numbers as the torch modules (tested), without
-    torch's per-operation overhead (about 3x faster)."""
+    torch's per-operation overhead (about 5x faster)."""
     ext, head = policy.mlp_extractor, policy.action_net
     assert isinstance(ext, VehicleExtractor) and isinstance(head, VehicleHead)
 
@@ -181,23 +181,24 @@ def numpy_actor(policy: VehiclePolicy) -> Callable[[NDArray[np.float32]], NDArra
     (w1, b1), (w2, b2), (wh, bh) = weights(ext.pi[0]), weights(ext.pi[1]), weights(head.linear)
     lay, h = ext.lay, ext.hidden
     a, b = lay.n * N_VF, lay.n * N_VF + lay.nf
-    # the first layer's input is [own, appended, fleet, ranks]: one product per block, the
-    # fleet's (the same for every vehicle) folded into the bias once per decision
-    w_own, w_app = w1[:N_VF], w1[N_VF : N_VF + lay.k]
-    r0 = N_VF + lay.k + lay.nf
-    w_fleet, w_rank, w_extra = w1[N_VF + lay.k : r0], w1[r0 : r0 + 2], w1[r0 + 2 :]
     c = b + lay.n * lay.k
-    w2_own, w2_mean = w2[:h], w2[h:]
+    # The first layer's input is [own, appended, fleet, ranks, extra]: the fleet's block (the
+    # same for every vehicle) goes into the bias once a decision, the others into one
+    # product; the ranks' scale is folded into their weights. All in float32: an int or
+    # float64 operand would make every product float64 (2.4x slower).
+    r0 = N_VF + lay.k + lay.nf
+    w_fleet = w1[N_VF + lay.k : r0]
     scale = np.float32(1.0 / max(lay.n - 1, 1))
+    w_in = np.concatenate([w1[: N_VF + lay.k], w1[r0 : r0 + 2] * scale, w1[r0 + 2 :]])
+    w2_own, w2_mean = w2[:h], w2[h:]
 
     def logits(z: NDArray[np.float32]) -> NDArray[np.float32]:
-        own, app = z[:a].reshape(lay.n, N_VF), z[b:c].reshape(lay.n, lay.k)
+        app = z[b:c].reshape(lay.n, lay.k)
         hot, mild = app[:, lay.hot], app[:, lay.mild]
-        ranks = np.stack([(hot[:, None] > hot).sum(1), (mild[:, None] > mild).sum(1)], 1)
-        x = own @ w_own + app @ w_app + (ranks * scale) @ w_rank + (z[a:b] @ w_fleet + b1)
-        if lay.extra:
-            x = x + z[c:].reshape(lay.n, lay.extra) @ w_extra
-        h1 = np.tanh(x)
+        below = [(x[:, None] > x).sum(1, keepdims=True, dtype=np.float32) for x in (hot, mild)]
+        x = np.concatenate([z[:a].reshape(lay.n, N_VF), app, *below,
+                            z[c:].reshape(lay.n, lay.extra)], axis=1)  # fmt: skip
+        h1 = np.tanh(x @ w_in + (z[a:b] @ w_fleet + b1))
         h2 = np.tanh(h1 @ w2_own + (h1.mean(0) @ w2_mean + b2))
         return (h2 @ wh + bh).ravel()
 
