@@ -31,7 +31,13 @@ import gymnasium as gym
 import numpy as np
 from numpy.typing import NDArray
 
-from agents.fleet.learning.dispatch import BaseDuties, CoverNeeds, cover_needs, with_base_duties
+from agents.fleet.learning.dispatch import (
+    DUTIES,
+    BaseDuties,
+    CoverNeeds,
+    cover_needs,
+    with_base_duties,
+)
 from agents.fleet.learning.imitation import (
     Demonstrations,
     Imitation,
@@ -253,7 +259,7 @@ def build_model(
         if s.reorder is None:
             raise ValueError("build_model: vehicle_net decides duties only; set reorder")
         policy = VehiclePolicy
-        extra = 0 if base is None else 4
+        extra = 0 if base is None else DUTIES
         kwargs = {"vehicles": VehicleLayout.of(layout, extra), "hidden": s.net_arch[-1]}
     model = MaskablePPO(
         policy, venv, learning_rate=s.learning_rate, n_steps=s.n_steps,
@@ -287,7 +293,7 @@ def train_on_labels(
     if settings.vehicle_net:  # ranks compare vehicles: one scale per feature, kept in PPO
         from agents.fleet.learning.vehicle_net import VehicleLayout, pool_vehicle_stats
 
-        lay = VehicleLayout.of(layout, 0 if base is None else 4)
+        lay = VehicleLayout.of(layout, 0 if base is None else DUTIES)
         pool_vehicle_stats(venv.obs_rms.mean, venv.obs_rms.var, lay)
         venv.training = False
     returns = discounted_returns(labels, settings.gamma, venv, settings.normalize_reward)

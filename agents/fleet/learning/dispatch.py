@@ -17,6 +17,7 @@ from brake_env.env.fleet.rules import fits_capacity
 from brake_env.env.fleet.shop import HOT, MILD, PARK, SERVICE
 
 I64 = NDArray[np.int64]
+DUTIES = 4  # a vehicle's duties (hot, mild, park, service): the one-hot width of BaseDuties
 
 
 def cover_needs(config: FleetConfig, duty: I64, view: FleetView, min_rul: float = 1.0) -> I64:
@@ -102,7 +103,7 @@ def with_base_duties(
     ``view``: the observation read already (the rule then acts on it directly)."""
     action = rule.predict(obs)[0] if view is None else rule.act(view)
     duty = np.asarray(action[:n], dtype=np.int64)
-    return np.concatenate([np.asarray(obs, dtype=np.float64), np.eye(4)[duty].ravel()])
+    return np.concatenate([np.asarray(obs, dtype=np.float64), np.eye(DUTIES)[duty].ravel()])
 
 
 class BaseDuties(gym.ObservationWrapper[Any, Any, Any]):
@@ -118,8 +119,8 @@ class BaseDuties(gym.ObservationWrapper[Any, Any, Any]):
         self.rule = rule
         self.n = rule.layout.n_vehicles
         space: Any = env.observation_space
-        low = np.concatenate([space.low, np.zeros(4 * self.n)]).astype(np.float32)
-        high = np.concatenate([space.high, np.ones(4 * self.n)]).astype(np.float32)
+        low = np.concatenate([space.low, np.zeros(DUTIES * self.n)]).astype(np.float32)
+        high = np.concatenate([space.high, np.ones(DUTIES * self.n)]).astype(np.float32)
         self.observation_space = gym.spaces.Box(low, high, dtype=np.float32)
 
     def observation(self, observation: Any) -> Any:

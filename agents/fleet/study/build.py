@@ -70,9 +70,26 @@ def episodes_of(d: dict[str, Any]) -> list[EpisodeCost]:
     ]  # fmt: skip
 
 
-def rebuild_rule(config: FleetStudyConfig, heuristic: str, params: dict[str, Any]) -> Any:
-    """A tuned heuristic from its parameters (as :func:`heuristic_unit` saved them)."""
+def rebuild_rule(
+    config: FleetStudyConfig, heuristic: str, params: dict[str, Any],
+    lay: FleetLayout | None = None,
+) -> Any:  # fmt: skip
+    """A tuned heuristic from its parameters (as :func:`heuristic_unit` saved them), reading
+    ``lay`` (default: the study's layout, the RUL mean alone)."""
     import optuna  # the fleet extra, imported where used (as in tuning.tune)
 
     w = config.fleet.window_period
-    return SPACES[heuristic](optuna.trial.FixedTrial(params), layout(config), w)
+    return SPACES[heuristic](optuna.trial.FixedTrial(params), lay or layout(config), w)
+
+
+def single_thread(fn: Any, *args: Any) -> Any:
+    """``fn(*args)`` with torch on one thread: the same numbers in this process and on Ray,
+    and no waits for threads on busy cores (tiny networks)."""
+    import torch
+
+    threads = torch.get_num_threads()
+    torch.set_num_threads(1)
+    try:
+        return fn(*args)
+    finally:
+        torch.set_num_threads(threads)

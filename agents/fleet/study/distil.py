@@ -38,9 +38,9 @@ from agents.fleet.learning.dispatch import cover_needs
 from agents.fleet.learning.imitation import concat, record
 from agents.fleet.policies.view import FleetView
 from agents.fleet.settings import LABEL_SEED0, TRAIN_SEED0
-from agents.fleet.study.build import episodes_dict
+from agents.fleet.study.build import episodes_dict, single_thread
 from agents.fleet.study.curve import LearningCurve, mean_cost
-from agents.fleet.study.distil_job import Job, Timed, demo_dict, demo_of, single_thread
+from agents.fleet.study.distil_job import Job, Timed, demo_dict, demo_of
 from agents.fleet.study.distil_shared import shared_seed_unit
 from brake_env.model.atlas import Atlas
 from brake_env.prognostics.protocol import Predictor
@@ -141,7 +141,7 @@ def _seed(
     }  # fmt: skip
 
 
-def distil_graph(job: Job, runner: Runner, atlas: Any, fitted: Any) -> list[Unit | Later]:
+def distil_graph(job: Job, atlas: Any, fitted: Any) -> list[Unit | Later]:
     """Round r's label units after every earlier round's; the seeds after every label."""
     d = job.distil
     per_shift = job.study.shifts
@@ -182,7 +182,7 @@ def run_distil(
     bar = progress("fleet-distil units", len(keys)) if progress else None
     try:
         return runner.run_graph(
-            distil_graph(job, runner, runner.share(atlas),
+            distil_graph(job, runner.share(atlas),
                          None if fitted is None else runner.share(fitted)),
             store, (lambda k, r: bar.update(1)) if bar else None,
         )  # fmt: skip

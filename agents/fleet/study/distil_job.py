@@ -7,22 +7,20 @@ from __future__ import annotations
 
 import time
 from collections.abc import Mapping
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, fields, replace
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from agents.fleet.learning.imitation import Demonstrations
-from agents.fleet.policies.planning import PlanningModel
 from agents.fleet.policies.rollout import RolloutPolicy
 from agents.fleet.policies.view import FleetLayout
 from agents.fleet.settings import DistilConfig, FleetStudyConfig
-from agents.fleet.study.build import rul_env
-from agents.fleet.study.planners import INTERVAL
+from agents.fleet.study.build import rebuild_rule, rul_env
+from agents.fleet.study.planners import planner_fields, study_planner
 from brake_env.model.atlas import Atlas
 from brake_env.prognostics.protocol import Predictor
-from brake_env.prognostics.registry import ORACLE
 
 
 @dataclass(frozen=True)
@@ -41,7 +39,7 @@ class Job:
 
     @property
     def fields(self) -> tuple[str, ...]:
-        return ("rul_mean",) if self.distil.predictor == ORACLE else INTERVAL
+        return planner_fields(self.distil.predictor)
 
     def layout(self) -> FleetLayout:
         return FleetLayout.of(self.study.fleet, fields=self.fields)
@@ -51,13 +49,7 @@ class Job:
 
     def rule(self) -> Any:
         """The base rule reading this job's layout (the interval's fields beside the mean)."""
-        import optuna  # the fleet extra, imported where used (as in tuning.tune)
-
-        from agents.fleet.evaluation.tuning import SPACES
-
-        name, params = self.base
-        trial = optuna.trial.FixedTrial(params)
-        return SPACES[name](trial, self.layout(), self.study.fleet.window_period)
+        return rebuild_rule(self.study, *self.base, self.layout())
 
     def base_input(self) -> Any:
         """The rule whose duties the policy reads (None without ``base_input``)."""
@@ -69,9 +61,7 @@ class Job:
         return replace(self.distil.training, seed=seed, reorder=(int(p.s), int(p.S)))
 
     def planner(self, atlas: Atlas) -> RolloutPolicy:
-        s = self.study
-        return RolloutPolicy(self.rule(), PlanningModel.build(s.fleet, atlas),
-                             s.rollout_horizon, s.rollout_samples, s.seed)  # fmt: skip
+        return study_planner(self.study, atlas, self.rule())
 
     def label_key(self, round_: int, chunk: int) -> str:
         return f"labels-{self.distil.predictor}-r{round_}-c{chunk}-{self.distil.digest(False)}"
@@ -112,24 +102,11 @@ class Timed:
         return repr(self.policy)
 
 
-def single_thread(fn: Any, *args: Any) -> Any:
-    """``fn(*args)`` with torch on one thread: the same numbers in this process and on Ray,
-    and no waits for threads on busy cores."""
-    import torch
-
-    threads = torch.get_num_threads()
-    torch.set_num_threads(1)
-    try:
-        return fn(*args)
-    finally:
-        torch.set_num_threads(threads)
-
-
 def demo_dict(d: Demonstrations) -> dict[str, NDArray[Any]]:
-    return {"obs": d.obs, "actions": d.actions, "masks": d.masks, "rewards": d.rewards,
-            "starts": d.starts, "taken": d.taken}  # fmt: skip
+    """Labels as a unit result (its arrays by field name)."""
+    return {f.name: getattr(d, f.name) for f in fields(Demonstrations)}
 
 
 def demo_of(d: Mapping[str, Any]) -> Demonstrations:
-    return Demonstrations(*(np.asarray(d[k]) for k in
-                            ("obs", "actions", "masks", "rewards", "starts", "taken")))  # fmt: skip
+    """:func:`demo_dict` read back."""
+    return Demonstrations(**{f.name: np.asarray(d[f.name]) for f in fields(Demonstrations)})

@@ -24,8 +24,8 @@ from numpy.typing import NDArray
 from agents.fleet.evaluation.costs import run_episodes
 from agents.fleet.learning.imitation import Demonstrations, concat
 from agents.fleet.settings import TRAIN_SEED0
-from agents.fleet.study.build import episodes_dict, rul_env
-from agents.fleet.study.distil_job import Job, Timed, demo_of, single_thread
+from agents.fleet.study.build import episodes_dict, rul_env, single_thread
+from agents.fleet.study.distil_job import Job, Timed, demo_of
 from brake_env.env.fleet.agent_view import vehicle_views
 from brake_env.env.fleet.spaces import FLEET_FEATURES, N_VF
 from brake_env.model.atlas import Atlas

@@ -23,7 +23,6 @@ from typing import Any
 import numpy as np
 
 from agents.fleet.evaluation.costs import run_episodes
-from agents.fleet.evaluation.tuning import SPACES
 from agents.fleet.policies.lagrangian import BoundModel, bound, solve, start_counts
 from agents.fleet.policies.lagrangian_search import search
 from agents.fleet.policies.planning import PlanningModel
@@ -31,7 +30,7 @@ from agents.fleet.policies.priced import PricedPolicy
 from agents.fleet.policies.rollout import RolloutPolicy
 from agents.fleet.policies.view import FleetLayout
 from agents.fleet.settings import FleetStudyConfig
-from agents.fleet.study.build import episodes_dict, rul_env
+from agents.fleet.study.build import episodes_dict, rebuild_rule, rul_env
 from brake_env.env.fleet.env import BrakeWearFleetEnv
 from brake_env.model.atlas import Atlas
 from brake_env.prognostics.protocol import Predictor
@@ -71,21 +70,28 @@ def bound_unit(config: FleetStudyConfig, atlas: Atlas) -> dict[str, Any]:
     }  # fmt: skip
 
 
+def planner_fields(predictor: str) -> tuple[str, ...]:
+    """The RUL fields the planner reads: the interval where the predictor has one."""
+    return ("rul_mean",) if predictor == ORACLE else INTERVAL
+
+
+def study_planner(config: FleetStudyConfig, atlas: Atlas, base: Any) -> RolloutPolicy:
+    """The rollout planner on ``base`` with the study's horizon, samples and seed."""
+    return RolloutPolicy(base, PlanningModel.build(config.fleet, atlas),
+                         config.rollout_horizon, config.rollout_samples, config.seed)  # fmt: skip
+
+
 def rollout_unit(
     config: FleetStudyConfig, atlas: Atlas, predictor: str, fitted: Predictor | None,
     base: tuple[str, dict[str, Any]], seeds: list[int],
 ) -> dict[str, Any]:  # fmt: skip
     """The rollout planner on ``base`` (the predictor's best heuristic: name, parameters)
     on the evaluation episodes ``seeds``; with the decision time per shift."""
-    import optuna  # the fleet extra, imported where used (as in tuning.tune)
-
-    fields = ("rul_mean",) if predictor == ORACLE else INTERVAL
+    fields = planner_fields(predictor)
     env = rul_env(config, atlas, predictor, fitted, fields)
-    lay = FleetLayout.of(config.fleet, fields=fields)
     name, params = base
-    rule = SPACES[name](optuna.trial.FixedTrial(params), lay, config.fleet.window_period)
-    policy = RolloutPolicy(rule, PlanningModel.build(config.fleet, atlas),
-                           config.rollout_horizon, config.rollout_samples, config.seed)  # fmt: skip
+    rule = rebuild_rule(config, name, params, FleetLayout.of(config.fleet, fields=fields))
+    policy = study_planner(config, atlas, rule)
     t0 = time.perf_counter()
     eps = run_episodes(env, policy, seeds, check_masks=True)
     seconds = time.perf_counter() - t0

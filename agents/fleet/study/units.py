@@ -34,7 +34,7 @@ import numpy as np
 from agents.fleet.evaluation.costs import run_episodes
 from agents.fleet.evaluation.tuning import tune
 from agents.fleet.settings import TRAIN_SEED0, FleetStudyConfig
-from agents.fleet.study.build import episodes_dict, layout, rebuild_rule, rul_env
+from agents.fleet.study.build import episodes_dict, layout, rebuild_rule, rul_env, single_thread
 from agents.fleet.study.curve import LearningCurve, mean_cost
 from agents.fleet.study.planners import bound_unit, rollout_unit
 from brake_env.model.atlas import Atlas
@@ -298,14 +298,7 @@ def agent_unit(
 ) -> dict[str, Any]:
     """MaskablePPO trained with the predictor's RUL from the run's training seed; its
     learning curve and its costs on the evaluation episodes."""
-    import torch
-
-    threads = torch.get_num_threads()
-    torch.set_num_threads(1)  # the same agent in this process and in a Ray worker
-    try:
-        return _agent(config, atlas, fitted, run)
-    finally:
-        torch.set_num_threads(threads)
+    return single_thread(_agent, config, atlas, fitted, run)
 
 
 def _agent(
