@@ -29,9 +29,12 @@ def cover_needs(config: FleetConfig, duty: I64, view: FleetView, min_rul: float 
        shift) are parked, the least urgent (most hot-route life) first; when only the bays
        are short, among the vehicles that need one (a vehicle down in the shop needs none).
        At a window nobody drives, and the workshop's deferral rule picks among requests.
-    2. **Needs covered**: while the hot route is short of ``hot_need``, the parked vehicle
-       able to drive with the most hot-route life (at least ``min_rul`` shifts) joins it;
-       then the mild route likewise (a vehicle on the ramp beyond its need covers a drift).
+    2. **Needs covered**: while the hot route is short of ``hot_need``, a vehicle able to
+       drive it (at least ``min_rul`` shifts of hot-route life) joins it, the healthiest
+       first from, in turn, the drifts beyond their need (the number at work unchanged),
+       the parked vehicles, and the drifts' own (a drift short costs half a ramp shift);
+       then the mild route is filled from the parked vehicles likewise (a vehicle on the
+       ramp beyond its need covers a drift).
 
     Nothing else changes, so a policy whose duties are feasible and cover the needs, as
     every tuned rule and the rollout planner's are, acts unchanged (checked on the planner's
@@ -46,15 +49,22 @@ def cover_needs(config: FleetConfig, duty: I64, view: FleetView, min_rul: float 
         v = pool[np.argmax(view.rul[pool])]  # the least urgent (first of equals)
         fits[v], duty[v] = False, PARK
     counts = np.bincount(duty, minlength=4)
-    hot = int(counts[HOT])
+    hot, mild = int(counts[HOT]), int(counts[MILD])
     short_hot = max(config.hot_need - hot, 0)
-    if short_hot == 0 and counts[MILD] + hot - config.hot_need >= config.mild_need:
+    if short_hot == 0 and mild + hot - config.hot_need >= config.mild_need:
         return duty  # covered already (most shifts)
-    idle = np.flatnonzero((duty == PARK) & ~view.down & (view.rul >= min_rul))
-    idle = idle[np.argsort(-view.rul[idle], kind="stable")]
-    k = short_hot
-    duty[idle[:k]] = HOT
-    hot, idle = hot + len(idle[:k]), idle[k:]
+    able = ~view.down & (view.rul >= min_rul)
+
+    def healthiest(of: NDArray[np.bool_]) -> I64:
+        i = np.flatnonzero(of & able)
+        return i[np.argsort(-view.rul[i], kind="stable")]
+
+    drifts, idle = healthiest(duty == MILD), healthiest(duty == PARK)
+    spare = max(mild - config.mild_need, 0)
+    to_hot = np.concatenate([drifts[:spare], idle, drifts[spare:]])[:short_hot]
+    duty[to_hot] = HOT
+    hot += len(to_hot)
+    idle = idle[~np.isin(idle, to_hot)]
     k = max(config.mild_need - int((duty == MILD).sum()) - max(hot - config.hot_need, 0), 0)
     duty[idle[:k]] = MILD
     return duty

@@ -46,6 +46,26 @@ def test_cover_needs_sends_the_healthiest_idle_vehicles_to_the_short_routes() ->
     assert got[5] == SERVICE and list(np.flatnonzero(got == PARK)) == [6]
 
 
+def test_cover_needs_moves_drift_trucks_to_a_short_ramp_spare_drifts_first() -> None:
+    """The distilled policy's failure seen at the default fleet: 2 on the ramp, 8 in the
+    drifts (the needs 6 and 4), nobody idle to send."""
+    rul = [float(v) for v in range(10, 130, 10)]
+    duty = np.array([HOT, HOT] + [MILD] * 8 + [PARK, PARK])
+    got = cover_needs(DEFAULT, duty, _view(rul, down=[False] * 10 + [True, True]))
+    assert list(np.flatnonzero(got == HOT)) == [0, 1, 6, 7, 8, 9]  # the 4 healthiest drifts
+    assert list(np.flatnonzero(got == MILD)) == [2, 3, 4, 5]  # the drifts stay covered
+    # Drifts only at their need, one idle truck: it goes first, then the healthiest drift
+    # (a drift short costs half a ramp shift), and nobody is left for the drifts.
+    duty = np.array([HOT] * 4 + [MILD] * 4 + [PARK] * 4)
+    got = cover_needs(DEFAULT, duty, _view(rul, down=[False] * 8 + [True, True, True, False]))
+    assert list(np.flatnonzero(got == HOT)) == [0, 1, 2, 3, 7, 11]
+    assert list(np.flatnonzero(got == MILD)) == [4, 5, 6]
+    # A drift truck without a shift of hot-route life never takes the ramp.
+    low = [50.0] * 5 + [0.5] * 7
+    got = cover_needs(DEFAULT, np.array([HOT] * 5 + [MILD] * 7), _view(low))
+    assert np.array_equal(got, [HOT] * 5 + [MILD] * 7)
+
+
 def test_cover_needs_leaves_covered_shifts_windows_and_unable_vehicles_alone() -> None:
     rul = [50.0] * 12
     covered = np.array([HOT] * 7 + [MILD] * 3 + [PARK] * 2)  # the 7th ramp truck covers a drift
