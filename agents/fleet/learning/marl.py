@@ -31,6 +31,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from agents.fleet.learning.dispatch import cover_needs
+from agents.fleet.policies.view import FleetLayout, FleetView
 from brake_env.env.fleet.agent_view import vehicle_views
 from brake_env.env.fleet.rules import action_mask
 from brake_env.env.fleet.spaces import read_observation
@@ -126,11 +128,14 @@ class MarlFleetPolicy:
         actor: The policy network (views (n, d) in, logits (n, 4) out).
         config: The env's :class:`~brake_env.env.fleet.config.FleetConfig`.
         spares: The (s, S) rule it was trained with.
+        cover: The vehicles' duties go through the fleet's dispatch repair
+            (:func:`~agents.fleet.learning.dispatch.cover_needs`, the central policy's)
+            before the env: decided apart, made feasible together.
     """
 
-    def __init__(self, actor: Any, config: Any, spares: SparesRule) -> None:
-        self.actor, self.config, self.spares = actor, config, spares
-        self.name = "shared MAPPO (TorchRL)"
+    def __init__(self, actor: Any, config: Any, spares: SparesRule, cover: bool = False) -> None:
+        self.actor, self.config, self.spares, self.cover = actor, config, spares, cover
+        self.name = "shared MAPPO (TorchRL)" + (", needs covered" if cover else "")
 
     def logits(self, obs: NDArray[Any]) -> tuple[NDArray[np.float32], NDArray[np.bool_]]:
         """(logits (n, 4), mask (n, 4)) for one observation."""
@@ -160,6 +165,9 @@ class MarlFleetPolicy:
             p = np.exp(masked - masked.max(axis=1, keepdims=True))
             p /= p.sum(axis=1, keepdims=True)
             duties = np.array([np.random.default_rng().choice(4, p=row) for row in p])
+        if self.cover:
+            lay = FleetLayout.of(self.config, fields=("rul_mean",), routes=("hot",))
+            duties = cover_needs(self.config, duties, FleetView.read(obs, lay))
         f = read_observation(obs, self.config.n_vehicles, 1).fleet
         fits = int((duties == 3).sum())
         q = self.spares.order(f["stock"], f["in_transit"], fits, self.config.max_order)

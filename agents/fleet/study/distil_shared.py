@@ -10,7 +10,9 @@ fleet's, the shift's needs and slots, the vehicles able to drive, its hot-route 
 rank by it. So each label gives one sample per vehicle: the hot-route RUL column of the
 observation, the rest as the env has it. Spares follow the base rule's (s, S), as the
 planner's do. The policy runs on the env with the predictor's hot-route RUL alone (the
-PettingZoo env's view) on the study's evaluation episodes, each decision timed.
+PettingZoo env's view) on the study's evaluation episodes, each decision timed; with the
+training's ``cover_needs`` (the default) the vehicles' duties, decided apart, go through the
+central policy's dispatch repair (:func:`~agents.fleet.learning.dispatch.cover_needs`).
 """
 
 from __future__ import annotations
@@ -80,7 +82,7 @@ def _shared(
     nets = make_networks(par, st, *standardise_stats(data.views))
     agreement = fit_clone(nets, data, st)
     assert par.spares is not None
-    policy = Timed(MarlFleetPolicy(nets.actor_net, job.study.fleet, par.spares))
+    policy = Timed(MarlFleetPolicy(nets.actor_net, job.study.fleet, par.spares, tr.cover_needs))
     train_s = time.perf_counter() - t0
     env = rul_env(job.study, atlas, job.distil.predictor, fitted, ("rul_mean",), ("hot",))
     eps = run_episodes(env, policy, job.study.eval_seeds(), check_masks=True)

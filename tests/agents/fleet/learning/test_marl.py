@@ -12,13 +12,16 @@ pytest.importorskip("pettingzoo")
 import torch
 
 from agents.fleet.evaluation.costs import run_episodes
-from agents.fleet.learning.marl import MarlTraining, standardise_stats, train_marl
+from agents.fleet.learning.dispatch import cover_needs
+from agents.fleet.learning.marl import MarlFleetPolicy, MarlTraining, standardise_stats, train_marl
 from agents.fleet.learning.marl_torch import GROUP, make_networks, ppo, record, torchrl_env
 from agents.fleet.policies.rules import opportunistic_rule, with_parts
-from agents.fleet.policies.view import FleetLayout
+from agents.fleet.policies.view import FleetLayout, FleetView
 from brake_env.env.fleet.config import FleetConfig
 from brake_env.env.fleet.env import BrakeWearFleetEnv
 from brake_env.env.fleet.parallel import BrakeWearFleetParallelEnv
+from brake_env.env.fleet.shop import HOT, MILD
+from brake_env.env.fleet.spares import SparesRule
 from brake_env.env.fleet.wrappers import ExpectedRULObservation
 from tests.brake_env.env.fleet.small import SMALL
 
@@ -108,3 +111,25 @@ def test_the_env_must_show_the_rul_and_leave_the_spares_to_a_rule(atlas) -> None
                    MarlTraining(frames=60, frames_per_batch=60, minibatch=30))  # fmt: skip
     with pytest.raises(ValueError, match="teacher"):
         train_marl(lambda: BrakeWearFleetParallelEnv(CFG, atlas=atlas), TINY)
+
+
+def test_the_needs_are_covered_when_the_vehicles_all_choose_the_drifts(atlas) -> None:
+    """A shared policy whose every vehicle picks the mild route: alone it leaves the ramp
+    empty; with ``cover`` the dispatch repair sends the healthiest able ones to it."""
+
+    def to_the_drifts(views: torch.Tensor) -> torch.Tensor:
+        logits = torch.zeros((*views.shape[:-1], 4))
+        logits[..., MILD] = 5.0
+        return logits
+
+    env = ExpectedRULObservation(BrakeWearFleetEnv(CFG, atlas=atlas), routes=("hot",))
+    obs, _ = env.reset(seed=2)
+    spares = SparesRule(*S_S)
+    alone = MarlFleetPolicy(to_the_drifts, CFG, spares).predict(obs)[0]
+    covered = MarlFleetPolicy(to_the_drifts, CFG, spares, cover=True).predict(obs)[0]
+    n = CFG.n_vehicles
+    assert (alone[:n] == MILD).all()
+    assert (covered[:n] == HOT).sum() == CFG.hot_need
+    view = FleetView.read(obs, FleetLayout.of(CFG, routes=("hot",)))
+    np.testing.assert_array_equal(covered[:n], cover_needs(CFG, alone[:n], view))
+    assert covered[n] == alone[n]  # the spares' order is the rule's either way
