@@ -24,7 +24,7 @@ import numpy as np
 
 from agents.fleet.evaluation.costs import run_episodes
 from agents.fleet.policies.lagrangian import BoundModel, bound, solve, start_counts
-from agents.fleet.policies.lagrangian_search import search
+from agents.fleet.policies.lagrangian_search import SearchResult, search
 from agents.fleet.policies.planning import PlanningModel
 from agents.fleet.policies.priced import PricedPolicy
 from agents.fleet.policies.rollout import RolloutPolicy
@@ -41,10 +41,11 @@ PRICED = "price-directed (truth)"
 INTERVAL = ("rul_mean", "rul_lower", "rul_upper")
 
 
-def bound_unit(config: FleetStudyConfig, atlas: Atlas) -> dict[str, Any]:
-    """The bound on each evaluation episode [per vehicle-shift], and the price-directed
-    policy's episodes."""
-    t0 = time.perf_counter()
+def study_bound(
+    config: FleetStudyConfig, atlas: Atlas, iterations: int
+) -> tuple[SearchResult, list[float]]:
+    """The price search for the evaluation episodes' mean start (``iterations`` steps), and
+    each episode's bound at the best prices [per vehicle-shift]."""
     cfg = config.fleet
     env = BrakeWearFleetEnv(cfg, atlas=atlas)
     model = BoundModel.build(cfg, atlas, credit=True)
@@ -53,10 +54,21 @@ def bound_unit(config: FleetStudyConfig, atlas: Atlas) -> dict[str, Any]:
         env.reset(seed=seed)
         truth = env.truth()
         states.append(model.state(truth["volume_frac"], truth["wear_coeff"]))
-    result = search(model, start_counts(model, np.array(states)), config.bound_iterations)
+    result = search(model, start_counts(model, np.array(states)), iterations)
     per = cfg.n_vehicles * cfg.episode_shifts
     bounds = [bound(model, result.program, result.prices, start_counts(model, s)) / per
               for s in states]  # fmt: skip
+    return result, bounds
+
+
+def bound_unit(config: FleetStudyConfig, atlas: Atlas) -> dict[str, Any]:
+    """The bound on each evaluation episode [per vehicle-shift], and the price-directed
+    policy's episodes."""
+    t0 = time.perf_counter()
+    cfg = config.fleet
+    result, bounds = study_bound(config, atlas, config.bound_iterations)
+    per = cfg.n_vehicles * cfg.episode_shifts
+    env = BrakeWearFleetEnv(cfg, atlas=atlas)
     t1 = time.perf_counter()
     # the policy on the uncredited program at those prices: the credit's values make its
     # services worse (3.489 against 2.852 on the default fleet's episodes 0-19)
