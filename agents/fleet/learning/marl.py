@@ -136,6 +136,7 @@ class MarlFleetPolicy:
     def __init__(self, actor: Any, config: Any, spares: SparesRule, cover: bool = False) -> None:
         self.actor, self.config, self.spares, self.cover = actor, config, spares, cover
         self.name = "shared MAPPO (TorchRL)" + (", needs covered" if cover else "")
+        self._layout = FleetLayout.of(config, fields=("rul_mean",), routes=("hot",))
 
     def logits(self, obs: NDArray[Any]) -> tuple[NDArray[np.float32], NDArray[np.bool_]]:
         """(logits (n, 4), mask (n, 4)) for one observation."""
@@ -166,8 +167,7 @@ class MarlFleetPolicy:
             p /= p.sum(axis=1, keepdims=True)
             duties = np.array([np.random.default_rng().choice(4, p=row) for row in p])
         if self.cover:
-            lay = FleetLayout.of(self.config, fields=("rul_mean",), routes=("hot",))
-            duties = cover_needs(self.config, duties, FleetView.read(obs, lay))
+            duties = cover_needs(self.config, duties, FleetView.read(obs, self._layout))
         f = read_observation(obs, self.config.n_vehicles, 1).fleet
         fits = int((duties == 3).sum())
         q = self.spares.order(f["stock"], f["in_transit"], fits, self.config.max_order)
