@@ -31,11 +31,11 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from agents.fleet.learning.dispatch import cover_needs
+from agents.fleet.learning.dispatch import DUTIES, cover_needs
 from agents.fleet.policies.view import FleetLayout, FleetView
 from brake_env.env.fleet.agent_view import vehicle_views
 from brake_env.env.fleet.rules import action_mask
-from brake_env.env.fleet.spaces import read_observation
+from brake_env.env.fleet.spaces import FLEET_FEATURES, N_VF, read_observation
 from brake_env.env.fleet.spares import SparesRule
 
 
@@ -120,9 +120,10 @@ class MarlResult:
 
 class MarlFleetPolicy:
     """The shared policy on the single env's RUL-wrapped observation (SB3's ``predict``):
-    every vehicle's view (:func:`~brake_env.env.fleet.agent_view.vehicle_views`), its mask
-    rebuilt from the observation (the env's rule), the most likely allowed duty
-    (``deterministic``) or a sample, then the spares by the env's (s, S) rule.
+    every vehicle's view (:func:`~brake_env.env.fleet.agent_view.vehicle_views`, with the
+    base rule's duty for it when there is one), its mask rebuilt from the observation (the
+    env's rule), the most likely allowed duty (``deterministic``) or a sample, then the
+    spares by the env's (s, S) rule.
 
     Args:
         actor: The policy network (views (n, d) in, logits (n, 4) out).
@@ -131,22 +132,36 @@ class MarlFleetPolicy:
         cover: The vehicles' duties go through the fleet's dispatch repair
             (:func:`~agents.fleet.learning.dispatch.cover_needs`, the central policy's)
             before the env: decided apart, made feasible together.
+        base: A fleet rule whose duty for each vehicle is appended to that vehicle's view,
+            one-hot (:func:`with_base_duty`): the dispatcher's default, which the policy
+            learns where to leave (residual input, as the central policy's ``BaseDuties``).
+        layout: Where the RUL is in the observation (default: the hot route's mean alone,
+            the PettingZoo env's view); a base rule may read more (its interval).
     """
 
-    def __init__(self, actor: Any, config: Any, spares: SparesRule, cover: bool = False) -> None:
+    def __init__(
+        self, actor: Any, config: Any, spares: SparesRule, cover: bool = False,
+        base: Any = None, layout: FleetLayout | None = None,
+    ) -> None:  # fmt: skip
         self.actor, self.config, self.spares, self.cover = actor, config, spares, cover
-        self.name = "shared MAPPO (TorchRL)" + (", needs covered" if cover else "")
-        self._layout = FleetLayout.of(config, fields=("rul_mean",), routes=("hot",))
+        self.base = base
+        self.name = ("shared MAPPO (TorchRL)" + (", base rule's duty in view" if base else "")
+                     + (", needs covered" if cover else ""))  # fmt: skip
+        hot = FleetLayout.of(config, fields=("rul_mean",), routes=("hot",))
+        self._layout = hot if layout is None else layout
+        if self._layout.column("hot", "rul_mean") is None:
+            raise ValueError(f"MarlFleetPolicy: the layout has no hot-route RUL mean:"
+                             f" {self._layout}")  # fmt: skip
 
     def logits(self, obs: NDArray[Any]) -> tuple[NDArray[np.float32], NDArray[np.bool_]]:
         """(logits (n, 4), mask (n, 4)) for one observation."""
         import torch
 
         n = self.config.n_vehicles
-        o = read_observation(obs, n, 1)
+        o = read_observation(obs, n, self._layout.per_vehicle)
         f = o.fleet
         mask = action_mask(o.down, o.window, f["stock"], f["free_bays"], self.config.max_order)
-        views = torch.as_tensor(vehicle_views(obs, self.config, True))
+        views = torch.as_tensor(shared_views(obs, self.config, self._layout, self.base))
         with torch.no_grad():
             logits = self.actor(views.unsqueeze(0))[0].numpy()
         return logits, mask[: 4 * n].reshape(n, 4)
@@ -168,13 +183,43 @@ class MarlFleetPolicy:
             duties = np.array([np.random.default_rng().choice(4, p=row) for row in p])
         if self.cover:
             duties = cover_needs(self.config, duties, FleetView.read(obs, self._layout))
-        f = read_observation(obs, self.config.n_vehicles, 1).fleet
+        f = read_observation(obs, self.config.n_vehicles, self._layout.per_vehicle).fleet
         fits = int((duties == 3).sum())
         q = self.spares.order(f["stock"], f["in_transit"], fits, self.config.max_order)
         return np.append(duties, q).astype(np.int64), state
 
     def __repr__(self) -> str:
         return f"MarlFleetPolicy({self.name}, {self.spares})"
+
+
+def hot_rul_observation(obs: NDArray[Any], layout: FleetLayout) -> NDArray[np.float64]:
+    """The fleet's observation (RUL as ``layout`` says) with only the hot-route RUL mean
+    appended per vehicle: what the PettingZoo env's views are made from."""
+    n, k = layout.n_vehicles, layout.per_vehicle
+    col = layout.column("hot", "rul_mean")
+    assert col is not None
+    o = np.asarray(obs, dtype=np.float64)
+    if k == 1:
+        return o
+    head = n * N_VF + len(FLEET_FEATURES)
+    return np.concatenate([o[:head], o[head:].reshape(n, k)[:, col]])
+
+
+def shared_views(
+    obs: NDArray[Any], config: Any, layout: FleetLayout, base: Any = None
+) -> NDArray[np.float32]:
+    """(n, d): every vehicle's view of ``obs`` (RUL as ``layout`` says), with ``base``'s
+    duty for it last when a base rule is given (:class:`MarlFleetPolicy`)."""
+    views = vehicle_views(hot_rul_observation(obs, layout), config, True)
+    if base is None:
+        return views
+    return with_base_duty(views, base.act(FleetView.read(obs, layout))[: config.n_vehicles])
+
+
+def with_base_duty(views: NDArray[Any], duty: NDArray[Any]) -> NDArray[np.float32]:
+    """(n, d + 4): each vehicle's view with a duty for it appended, one-hot."""
+    onehot = np.eye(DUTIES, dtype=np.float32)[np.asarray(duty, dtype=np.int64)]
+    return np.concatenate([np.asarray(views, dtype=np.float32), onehot], axis=1)
 
 
 def standardise_stats(views: NDArray[np.floating]) -> tuple[NDArray[np.float32], ...]:

@@ -73,9 +73,10 @@ def _mlp(d: int, out: int, n: int, st: MarlTraining, centralised: bool) -> Multi
 
 
 def make_networks(par: Any, st: MarlTraining, loc: NDArray[Any], scale: NDArray[Any]) -> Networks:
-    """A shared policy (view -> 4 logits) and critic (MAPPO: every view -> each value)."""
+    """A shared policy (view -> 4 logits) and critic (MAPPO: every view -> each value); the
+    view's width is the statistics' (the env's view, or more: the base rule's duty)."""
     torch.manual_seed(st.seed)
-    n, d = par.n, len(par.view_features)
+    n, d = par.n, len(loc)
     actor_net = nn.Sequential(Standardise(loc, scale), _mlp(d, 4, n, st, False))
     critic_net = nn.Sequential(Standardise(loc, scale), _mlp(d, 1, n, st, st.centralised_critic))
     module = TensorDictModule(actor_net, in_keys=[OBS], out_keys=[(GROUP, "logits")])

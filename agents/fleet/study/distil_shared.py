@@ -7,12 +7,15 @@ interval) and the planner's duty for each vehicle. The shared policy sees what
 :func:`~brake_env.env.fleet.agent_view.vehicle_views` gives a vehicle of the
 :class:`~brake_env.env.fleet.parallel.BrakeWearFleetParallelEnv`: its own state, the
 fleet's, the shift's needs and slots, the vehicles able to drive, its hot-route RUL and its
-rank by it. So each label gives one sample per vehicle: the hot-route RUL column of the
-observation, the rest as the env has it. Spares follow the base rule's (s, S), as the
-planner's do. The policy runs on the env with the predictor's hot-route RUL alone (the
-PettingZoo env's view) on the study's evaluation episodes, each decision timed; with the
-training's ``cover_needs`` (the default) the vehicles' duties, decided apart, go through the
-central policy's dispatch repair (:func:`~agents.fleet.learning.dispatch.cover_needs`).
+rank by it; with ``base_input`` (the default, as for the central policy) also the base
+rule's duty for it, one-hot: the dispatcher's default, which the planner leaves on a few
+shifts a vehicle (:func:`~agents.fleet.learning.marl.shared_views`). So each label gives
+one sample per vehicle. Spares follow the base rule's (s, S), as the planner's do. The
+policy runs on the env with the study's RUL fields (the base rule reads the interval; the
+views take the hot-route mean) on the study's evaluation episodes, each decision timed;
+with the training's ``cover_needs`` (the default) the vehicles' duties, decided apart, go
+through the central policy's dispatch repair
+(:func:`~agents.fleet.learning.dispatch.cover_needs`).
 """
 
 from __future__ import annotations
@@ -21,35 +24,24 @@ import time
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
 
 from agents.fleet.evaluation.costs import run_episodes
 from agents.fleet.learning.imitation import Demonstrations, concat
 from agents.fleet.settings import TRAIN_SEED0
-from agents.fleet.study.build import episodes_dict, rul_env, single_thread
+from agents.fleet.study.build import episodes_dict, single_thread
 from agents.fleet.study.distil_job import Job, Timed, demo_of
-from brake_env.env.fleet.agent_view import vehicle_views
-from brake_env.env.fleet.spaces import FLEET_FEATURES, N_VF
 from brake_env.model.atlas import Atlas
 from brake_env.prognostics.protocol import Predictor
 
 
-def hot_observation(job: Job, obs: NDArray[Any]) -> NDArray[np.float64]:
-    """The fleet's observation with only the hot-route RUL appended (the PettingZoo env's)."""
-    lay = job.layout()
-    n, k = lay.n_vehicles, lay.per_vehicle
-    head = n * N_VF + len(FLEET_FEATURES)
-    col = lay.column("hot", "rul_mean")
-    assert col is not None
-    return np.concatenate([obs[:head], obs[head:].reshape(n, k)[:, col]])
-
-
 def recorded(job: Job, demo: Demonstrations) -> Any:
-    """The labels as per-vehicle samples (:class:`~agents.fleet.learning.marl_torch.Recorded`)."""
+    """The labels as per-vehicle samples (:class:`~agents.fleet.learning.marl_torch.Recorded`):
+    each vehicle's view, with the base rule's duty for it with ``base_input``."""
+    from agents.fleet.learning.marl import shared_views
     from agents.fleet.learning.marl_torch import Recorded
 
-    cfg = job.study.fleet
-    views = np.stack([vehicle_views(hot_observation(job, o), cfg, True) for o in demo.obs])
+    cfg, lay, base = job.study.fleet, job.layout(), job.base_input()
+    views = np.stack([shared_views(o, cfg, lay, base) for o in demo.obs])
     masks = demo.masks.reshape(len(demo.obs), cfg.n_vehicles, 4)
     return Recorded(views, masks, demo.actions, demo.rewards, [int(s) for s in demo.starts])
 
@@ -82,9 +74,10 @@ def _shared(
     nets = make_networks(par, st, *standardise_stats(data.views))
     agreement = fit_clone(nets, data, st)
     assert par.spares is not None
-    policy = Timed(MarlFleetPolicy(nets.actor_net, job.study.fleet, par.spares, tr.cover_needs))
+    policy = Timed(MarlFleetPolicy(nets.actor_net, job.study.fleet, par.spares, tr.cover_needs,
+                                   job.base_input(), job.layout()))  # fmt: skip
     train_s = time.perf_counter() - t0
-    env = rul_env(job.study, atlas, job.distil.predictor, fitted, ("rul_mean",), ("hot",))
+    env = job.env(atlas, fitted)  # the RUL the base rule reads; the views take the hot mean
     eps = run_episodes(env, policy, job.study.eval_seeds(), check_masks=True)
     return {
         "predictor": job.distil.predictor, "seed": seed, "samples": int(data.actions.size),

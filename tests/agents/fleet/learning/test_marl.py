@@ -13,14 +13,21 @@ import torch
 
 from agents.fleet.evaluation.costs import run_episodes
 from agents.fleet.learning.dispatch import cover_needs
-from agents.fleet.learning.marl import MarlFleetPolicy, MarlTraining, standardise_stats, train_marl
+from agents.fleet.learning.marl import (
+    MarlFleetPolicy,
+    MarlTraining,
+    shared_views,
+    standardise_stats,
+    train_marl,
+)
 from agents.fleet.learning.marl_torch import GROUP, make_networks, ppo, record, torchrl_env
 from agents.fleet.policies.rules import opportunistic_rule, with_parts
 from agents.fleet.policies.view import FleetLayout, FleetView
+from brake_env.env.fleet.agent_view import vehicle_views
 from brake_env.env.fleet.config import FleetConfig
 from brake_env.env.fleet.env import BrakeWearFleetEnv
 from brake_env.env.fleet.parallel import BrakeWearFleetParallelEnv
-from brake_env.env.fleet.shop import HOT, MILD
+from brake_env.env.fleet.shop import HOT, MILD, SERVICE
 from brake_env.env.fleet.spares import SparesRule
 from brake_env.env.fleet.wrappers import ExpectedRULObservation
 from tests.brake_env.env.fleet.small import SMALL
@@ -133,3 +140,35 @@ def test_the_needs_are_covered_when_the_vehicles_all_choose_the_drifts(atlas) ->
     view = FleetView.read(obs, FleetLayout.of(CFG, routes=("hot",)))
     np.testing.assert_array_equal(covered[:n], cover_needs(CFG, alone[:n], view))
     assert covered[n] == alone[n]  # the spares' order is the rule's either way
+
+
+def test_with_a_base_rule_each_view_ends_with_its_duty_and_a_copying_policy_acts_as_it(
+    atlas,
+) -> None:
+    """The base rule's duty for each vehicle is the view's last four values (one-hot); a
+    network that copies them acts exactly as the rule, on an observation with more RUL
+    fields (both routes, mean and bounds) than the views read (the hot mean)."""
+    fields = ("rul_mean", "rul_lower", "rul_upper")
+    env = ExpectedRULObservation(BrakeWearFleetEnv(CFG, atlas=atlas), fields=fields)
+    layout = FleetLayout.of(CFG, fields=fields, routes=("hot", "mild"))
+    hot_only = ExpectedRULObservation(BrakeWearFleetEnv(CFG, atlas=atlas), routes=("hot",))
+    # pads of ~240 hot shifts: a can-do limit of 200 has the rule service at windows
+    rule = opportunistic_rule(FleetLayout.of(CFG, routes=("hot",)), n=200.0, N=3.0, s=1, S=3)
+
+    def copy_the_base(views: torch.Tensor) -> torch.Tensor:
+        return 10.0 * views[..., -4:]
+
+    policy = MarlFleetPolicy(copy_the_base, CFG, SparesRule(*S_S), base=rule, layout=layout)
+    (obs, _), (obs_hot, _) = env.reset(seed=4), hot_only.reset(seed=4)
+    n, services, done = CFG.n_vehicles, 0, False
+    while not done:  # a whole episode
+        views = shared_views(obs, CFG, layout, rule)
+        expected = rule.predict(obs_hot)[0]
+        np.testing.assert_array_equal(views[:, -4:].argmax(1), expected[:n])
+        np.testing.assert_array_equal(views[:, :-4], vehicle_views(obs_hot, CFG, True))
+        action = policy.predict(obs)[0]
+        np.testing.assert_array_equal(action, expected)
+        services += int((action[:n] == SERVICE).sum())
+        (obs, _, end, cut, _), (obs_hot, *_) = env.step(action), hot_only.step(action)
+        done = end or cut
+    assert services > 0  # the rule's services were copied too, not only its routes

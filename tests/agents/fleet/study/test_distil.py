@@ -151,7 +151,7 @@ def test_another_ppo_budget_keeps_the_labels_and_not_the_seeds() -> None:
 
 def test_the_shared_policy_reads_a_label_as_the_pettingzoo_env_s_observation(atlas) -> None:
     from agents.fleet.study.build import rul_env
-    from agents.fleet.study.distil_shared import hot_observation
+    from agents.fleet.learning.marl import hot_rul_observation
 
     job = Job(STUDY, DistilConfig(predictor="oracle"), ("threshold", {"threshold": 3.0}))
     full = rul_env(STUDY, atlas, "oracle", None, job.fields)
@@ -159,7 +159,7 @@ def test_the_shared_policy_reads_a_label_as_the_pettingzoo_env_s_observation(atl
     rule = job.rule()
     (a, _), (b, _) = full.reset(seed=3), hot.reset(seed=3)
     for _ in range(STUDY.shifts):
-        assert np.array_equal(hot_observation(job, a), b)
+        assert np.array_equal(hot_rul_observation(a, job.layout()), b)
         action, _ = rule.predict(a)
         a, *_ = full.step(action)
         b, *_ = hot.step(action)
