@@ -327,7 +327,9 @@ class DistilConfig:
         label_chunk: Episodes per labelling unit.
         base_input: The base rule's duties are part of the policy's input (residual
             learning: it learns where the planner departs from the rule, which it does on
-            about one shift in thirteen; :class:`~agents.fleet.learning.dispatch.BaseDuties`).
+            about one shift in thirteen; :class:`~agents.fleet.learning.dispatch.BaseDuties`);
+            for the shared policy, each vehicle's view ends with the rule's duty for it
+            (:func:`~agents.fleet.learning.marl.shared_views`).
         training: Each seed's cloning (``imitation_*``, ``net_arch``, ``batch_size``) and
             PPO after it (``timesteps``, 0: the clone alone); its ``reorder`` is set from the
             base rule's (s, S), the planner's own order rule.

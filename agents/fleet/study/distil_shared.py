@@ -54,33 +54,45 @@ def shared_seed_unit(
     return single_thread(_shared, job, atlas, fitted, seed, labels)
 
 
-def _shared(
-    job: Job, atlas: Atlas, fitted: Predictor | None, seed: int, labels: list[dict[str, Any]]
-) -> dict[str, Any]:
+def shared_clone(
+    job: Job, atlas: Atlas, fitted: Predictor | None, seed: int, demo: Demonstrations
+) -> tuple[Any, float, int]:
+    """The shared policy cloned from ``demo`` (TorchRL's networks, masked cross-entropy):
+    (its :class:`~agents.fleet.learning.marl.MarlFleetPolicy`, its agreement with the
+    labels, the per-vehicle samples)."""
     from agents.fleet.learning.marl import MarlFleetPolicy, MarlTraining, standardise_stats
     from agents.fleet.learning.marl_torch import fit_clone, make_networks
     from brake_env.env.fleet.parallel import BrakeWearFleetParallelEnv
 
-    t0 = time.perf_counter()
     tr = job.distil.training
     st = MarlTraining(frames=0, imitation_episodes=1, imitation_epochs=tr.imitation_epochs,
                       imitation_lr=tr.imitation_lr, hidden=tr.net_arch[-1],
                       depth=len(tr.net_arch), seed=TRAIN_SEED0 + 100 * seed)  # fmt: skip
-    data = recorded(job, concat([demo_of(d) for d in labels]))
-    spares = job.training(0).reorder
+    data = recorded(job, demo)
     predictor = fitted if fitted is not None else job.distil.predictor
-    par = BrakeWearFleetParallelEnv(job.study.fleet, predictor=predictor, spares=spares,
-                                    infos="none", atlas=atlas)  # fmt: skip
+    par = BrakeWearFleetParallelEnv(job.study.fleet, predictor=predictor,
+                                    spares=job.training(0).reorder, infos="none",
+                                    atlas=atlas)  # fmt: skip
     nets = make_networks(par, st, *standardise_stats(data.views))
     agreement = fit_clone(nets, data, st)
     assert par.spares is not None
-    policy = Timed(MarlFleetPolicy(nets.actor_net, job.study.fleet, par.spares, tr.cover_needs,
-                                   job.base_input(), job.layout()))  # fmt: skip
+    policy = MarlFleetPolicy(nets.actor_net, job.study.fleet, par.spares, tr.cover_needs,
+                             job.base_input(), job.layout())  # fmt: skip
+    return policy, agreement, int(data.actions.size)
+
+
+def _shared(
+    job: Job, atlas: Atlas, fitted: Predictor | None, seed: int, labels: list[dict[str, Any]]
+) -> dict[str, Any]:
+    t0 = time.perf_counter()
+    demo = concat([demo_of(d) for d in labels])
+    clone, agreement, samples = shared_clone(job, atlas, fitted, seed, demo)
+    policy = Timed(clone)
     train_s = time.perf_counter() - t0
     env = job.env(atlas, fitted)  # the RUL the base rule reads; the views take the hot mean
     eps = run_episodes(env, policy, job.study.eval_seeds(), check_masks=True)
     return {
-        "predictor": job.distil.predictor, "seed": seed, "samples": int(data.actions.size),
+        "predictor": job.distil.predictor, "seed": seed, "samples": samples,
         "agreement": agreement, "nll": float("nan"),
         "curve": {"timesteps": np.zeros(0), "cost": np.zeros(0)},
         "episodes": episodes_dict(eps),

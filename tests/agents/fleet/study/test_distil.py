@@ -150,8 +150,8 @@ def test_another_ppo_budget_keeps_the_labels_and_not_the_seeds() -> None:
 
 
 def test_the_shared_policy_reads_a_label_as_the_pettingzoo_env_s_observation(atlas) -> None:
-    from agents.fleet.study.build import rul_env
     from agents.fleet.learning.marl import hot_rul_observation
+    from agents.fleet.study.build import rul_env
 
     job = Job(STUDY, DistilConfig(predictor="oracle"), ("threshold", {"threshold": 3.0}))
     full = rul_env(STUDY, atlas, "oracle", None, job.fields)
