@@ -145,8 +145,9 @@ class MarlFleetPolicy:
     ) -> None:  # fmt: skip
         self.actor, self.config, self.spares, self.cover = actor, config, spares, cover
         self.base = base
-        self.name = ("shared MAPPO (TorchRL)" + (", base rule's duty in view" if base else "")
-                     + (", needs covered" if cover else ""))  # fmt: skip
+        parts = [", base rule's duty in view"] if base is not None else []
+        parts += [", needs covered"] if cover else []
+        self.name = "shared MAPPO (TorchRL)" + "".join(parts)
         hot = FleetLayout.of(config, fields=("rul_mean",), routes=("hot",))
         self._layout = hot if layout is None else layout
         if self._layout.column("hot", "rul_mean") is None:
