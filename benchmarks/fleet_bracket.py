@@ -9,10 +9,13 @@ the bound's price search has converged.
 2. With ``--iterations N``: the study's bound search rerun for N price steps (the same
    model, starts and search as the study's bound unit,
    :func:`agents.fleet.study.planners.study_bound`), the best bound after k steps: whether
-   a longer search would raise the bound.
+   a longer search would raise the bound. With ``--orders`` too, the search is that of the
+   bound tightened by the orders' share (each service pays at least ``order / max_order``
+   beyond the initial stock; ``BoundModel.build(orders=True)``), and the bracket of part 1
+   is printed again against it.
 
 Run: ``.venv/bin/python benchmarks/fleet_bracket.py out/default-net-twin/costs.json
-[--iterations 250]``
+[--iterations 250] [--orders]``
 """
 
 from __future__ import annotations
@@ -61,20 +64,23 @@ def split(study: dict[str, Any]) -> list[list[str]]:
         [f"best policy: {name}", f"{net.mean():.3f}"],
         ["Lagrangian bound", f"{low.mean():.3f}"],
         ["gap: policy minus bound", cell(net, low)],
-        ["  of it, spares' order and holding (the bound has none)", cell(spares, zero)],
+        ["  of it, the policy's spares' order and holding", cell(spares, zero)],
         ["  the rest", cell(net - spares, low)],
         ["ratio policy / bound", f"{paired_interval(net, low, 'ratio').point:.3f}"],
     ]  # fmt: skip
 
 
-def convergence(study: dict[str, Any], iterations: int) -> list[list[str]]:
-    """The best bound after k price steps of a search ``iterations`` long (mean start)."""
+def convergence(
+    study: dict[str, Any], iterations: int, orders: bool = False
+) -> tuple[list[list[str]], list[float]]:
+    """The best bound after k price steps of a search ``iterations`` long (mean start), and
+    each episode's bound at the best prices."""
     from agents.fleet.study.planners import study_bound
     from brake_env.env.atlases import default_atlas
 
     config = FleetStudyConfig.from_dict(study["config"])
     t0 = time.perf_counter()
-    result, bounds = study_bound(config, default_atlas(), iterations)
+    result, bounds = study_bound(config, default_atlas(), iterations, orders)
     seconds = time.perf_counter() - t0
     per = config.fleet.n_vehicles * config.fleet.episode_shifts
     best = np.maximum.accumulate(np.asarray(result.history)) / per
@@ -84,7 +90,7 @@ def convergence(study: dict[str, Any], iterations: int) -> list[list[str]]:
     rows += [[str(k), f"{best[k]:.4f}"] for k in steps]
     rows.append(["episodes' mean at the best prices", f"{np.mean(bounds):.4f}"])
     rows.append(["seconds", f"{seconds:.0f}"])
-    return rows
+    return rows, bounds
 
 
 def main() -> None:
@@ -92,13 +98,22 @@ def main() -> None:
     ap.add_argument("costs", help="a fleet study's costs.json (with a bound)")
     ap.add_argument("--iterations", type=int, default=0,
                     help="rerun the bound's price search this long (0: do not)")  # fmt: skip
+    ap.add_argument(
+        "--orders",
+        action="store_true",
+        help="rerun the bound tightened by the orders' share (with --iterations)",
+    )
     ap.add_argument("--markdown", action="store_true")
     args = ap.parse_args()
     study = json.loads(Path(args.costs).read_text(encoding="utf-8"))
     print(table(split(study), args.markdown))
     if args.iterations > 0:
+        rows, bounds = convergence(study, args.iterations, args.orders)
         print()
-        print(table(convergence(study, args.iterations), args.markdown))
+        print(table(rows, args.markdown))
+        if args.orders:
+            print("\nagainst the bound tightened by the orders' share:")
+            print(table(split({**study, "bound": {"episodes": bounds}}), args.markdown))
 
 
 if __name__ == "__main__":

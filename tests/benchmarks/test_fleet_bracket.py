@@ -21,7 +21,7 @@ def test_the_gap_of_the_best_row_splits_into_spares_and_the_rest() -> None:
     got = {r[0].strip(): r[1] for r in fb.split(study)}
     assert got["best policy: twin/planner"] == "2.000"
     assert got["gap: policy minus bound"].startswith("0.500 [")
-    assert got["of it, spares' order and holding (the bound has none)"] == "0.100 [0.100, 0.100]"
+    assert got["of it, the policy's spares' order and holding"] == "0.100 [0.100, 0.100]"
     assert got["the rest"].startswith("0.400 [")
     assert got["ratio policy / bound"] == "1.333"
     with pytest.raises(SystemExit, match="no bound"):

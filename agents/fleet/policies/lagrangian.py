@@ -26,7 +26,12 @@ pad with more cannot fail within the episode, so the cap is exact.
   the config's normal K (no quantile approximation; regime ``id`` only).
 - Spares always in stock, no order nor holding cost, no lead time (non-negative costs and
   a constraint dropped: relaxation); every fit pays ``pad + labour`` (the headline cost
-  prices pads when fitted).
+  prices pads when fitted). With ``orders`` (:meth:`BoundModel.build`) a service also pays
+  ``order / max_order`` and the bound gives back that much for each pad of the initial
+  stock: every pad fitted was in stock at the start or arrived by an order of at most
+  ``max_order`` pads (nothing is in transit at the start), so the orders cost at least
+  ``order / max_order`` times the fits beyond the initial stock (relaxation: failures'
+  fits are not charged, holding still is not).
 - A failure costs ``damage + pad + labour`` and ``downtime`` for each of the
   ``failure_repair_shifts`` shifts out that fall within the episode; the vehicle is down
   (cannot drive) for them, with a new pad: the env's rule, exactly.
@@ -87,6 +92,8 @@ class BoundModel:
             on the cost less that credit (:attr:`EpisodeCost.net`); the state's cap is
             then above every pad's life, so the credit is never cut (a relaxation still:
             rounding up gives more life, more credit).
+        order_share: Order cost charged per service (``order / max_order`` with
+            ``orders``; module docstring), given back for the initial stock.
     """
 
     config: FleetConfig
@@ -96,15 +103,17 @@ class BoundModel:
     wear: WearModel | None = None
     slack: int = 0
     credit: float = 0.0
+    order_share: float = 0.0
 
     @classmethod
     def build(
         cls, config: FleetConfig, atlas: Atlas, units: int = 20, slack_shifts: float = 0.0,
-        credit: bool = False,
+        credit: bool = False, orders: bool = False,
     ) -> BoundModel:  # fmt: skip
         """The model of an env's config and atlas (K of the ``id`` regime), every pad
         given ``slack_shifts`` hot shifts more than its expected life; with ``credit``
-        the pad life left at the end is credited (:attr:`credit`)."""
+        the pad life left at the end is credited (:attr:`credit`), with ``orders`` a
+        service pays its least share of an order (:attr:`order_share`)."""
         if config.regime != "id":
             raise ValueError(f"BoundModel: regime must be 'id', got {config.regime!r}")
         if units < 1:
@@ -134,7 +143,8 @@ class BoundModel:
             (config.costs.pad + config.costs.labour) * unit_events / float(wear.life(config.k_mean))
         )
         mild = int(np.floor(units * r_min))
-        return cls(config, units, mild, prob, wear, slack, per_unit if credit else 0.0)
+        share = config.costs.order / config.max_order if orders else 0.0
+        return cls(config, units, mild, prob, wear, slack, per_unit if credit else 0.0, share)
 
     @property
     def H(self) -> int:
@@ -252,7 +262,7 @@ def q_values(model: BoundModel, prices: Prices, t: int, v_next: F64) -> F64:
     new = model.new_prob @ v_next  # (D,): after a new pad, by shop state
     q = np.full((4, H + 1, D), np.inf)
     q[PARK] = v_next[:, dec]
-    fit = np.full(D, model.fit_cost)
+    fit = np.full(D, model.fit_cost + model.order_share)
     if window:
         fit += prices.crew[t]
     else:
@@ -339,8 +349,11 @@ def occupation(model: BoundModel, program: Program, start: F64) -> Occupation:
 def bound(model: BoundModel, program: Program, prices: Prices, start: F64) -> float:
     """The lower bound: the vehicles' optimal costs from ``start`` (expected vehicles at
     each h, nobody down; counts of one episode's vehicles, or their mean over episodes)
-    plus the prices' constant (:meth:`Prices.constant`)."""
-    return float(start @ program.values[0][:, 0] + prices.constant(model.config))
+    plus the prices' constant (:meth:`Prices.constant`), less the orders' share of the
+    initial stock (:attr:`BoundModel.order_share`)."""
+    c = model.config
+    given_back = model.order_share * c.initial_stock
+    return float(start @ program.values[0][:, 0] + prices.constant(c) - given_back)
 
 
 def supergradient(model: BoundModel, occ: Occupation) -> Prices:

@@ -42,13 +42,14 @@ INTERVAL = ("rul_mean", "rul_lower", "rul_upper")
 
 
 def study_bound(
-    config: FleetStudyConfig, atlas: Atlas, iterations: int
+    config: FleetStudyConfig, atlas: Atlas, iterations: int, orders: bool = False
 ) -> tuple[SearchResult, list[float]]:
     """The price search for the evaluation episodes' mean start (``iterations`` steps), and
-    each episode's bound at the best prices [per vehicle-shift]."""
+    each episode's bound at the best prices [per vehicle-shift]; with ``orders`` each
+    service pays its least share of an order (:meth:`BoundModel.build`)."""
     cfg = config.fleet
     env = BrakeWearFleetEnv(cfg, atlas=atlas)
-    model = BoundModel.build(cfg, atlas, credit=True)
+    model = BoundModel.build(cfg, atlas, credit=True, orders=orders)
     states = []
     for seed in config.eval_seeds():
         env.reset(seed=seed)

@@ -57,10 +57,13 @@ def toy(n: int, T: int, **kwargs) -> BoundModel:
     return BoundModel(cfg, units=2, mild_units=1, new_prob=np.array([0, 0, 0, 0.3, 0, 0.7]))
 
 
-def brute_force(m: BoundModel, h0: tuple[int, ...]) -> float:
+def brute_force(m: BoundModel, h0: tuple[int, ...], stock: int | None = None) -> float:
     """The exact joint optimum on the same per-vehicle model with the real coupling (the
     shortfall cost, the bays after the vehicles down, the window's slots), by recursion
-    over (t, every vehicle's (h, d)); written apart from the module."""
+    over (t, every vehicle's (h, d)); written apart from the module. With ``stock`` the
+    spares are real too: a service takes a pad from stock, and each shift may order up to
+    ``max_order`` pads at ``order`` (arriving at once, no holding cost: an easier problem
+    than the env's, whose lead time and holding only add cost; failures' pads are free)."""
     c = m.config
     p, R, F = c.breakdown_rate, c.breakdown_repair_shifts, c.failure_repair_shifts
     new = [(float(w), j) for j, w in enumerate(m.new_prob) if w > 0]
@@ -79,8 +82,10 @@ def brute_force(m: BoundModel, h0: tuple[int, ...]) -> float:
             return [(w, (j, F), fail) for w, j in new]
         return [(1 - p, (h - used, 0), 0.0), (p, (h - used, R), 0.0)]
 
+    orders = [0] if stock is None else list(range(c.max_order + 1))
+
     @functools.cache
-    def value(t: int, state: tuple) -> float:
+    def value(t: int, state: tuple, pads: int) -> float:
         if t == c.episode_shifts:  # the pad life left, credited (BoundModel.credit)
             return -m.credit * sum(h for h, _ in state)
         window = c.is_window(t)
@@ -95,16 +100,21 @@ def brute_force(m: BoundModel, h0: tuple[int, ...]) -> float:
                 not window and visits > max(c.bays - down, 0)
             ):
                 continue
-            total = shortfall_cost(c, joint.count(HOT), joint.count(MILD), window)
             per = [moves(t, h, d, a, window) for a, (h, d) in zip(joint, state, strict=True)]
-            for combo in itertools.product(*per):
-                prob = float(np.prod([o[0] for o in combo]))
-                nxt = tuple(o[1] for o in combo)
-                total += prob * (sum(o[2] for o in combo) + value(t + 1, nxt))
-            best = min(best, total)
+            for q in orders:
+                if stock is not None and fits > pads + q:
+                    continue
+                total = shortfall_cost(c, joint.count(HOT), joint.count(MILD), window)
+                total += c.costs.order if q else 0.0
+                left = pads + q - fits if stock is not None else 0
+                for combo in itertools.product(*per):
+                    prob = float(np.prod([o[0] for o in combo]))
+                    nxt = tuple(o[1] for o in combo)
+                    total += prob * (sum(o[2] for o in combo) + value(t + 1, nxt, left))
+                best = min(best, total)
         return best
 
-    return value(0, tuple((h, 0) for h in h0))
+    return value(0, tuple((h, 0) for h in h0), 0 if stock is None else stock)
 
 
 def random_prices(m: BoundModel, rng: np.random.Generator) -> Prices:
@@ -150,6 +160,38 @@ def test_the_credited_bound_is_below_the_credited_optimum(n, T, h0):
     assert best.bound <= exact + 1e-6
     np.testing.assert_allclose(solve(m, Prices.zeros(m.config)).values[T][:, 0],
                                -150.0 * np.arange(m.H + 1))  # fmt: skip
+
+
+@pytest.mark.parametrize(("n", "T", "h0"), [(2, 6, (1, 3)), (3, 4, (0, 1, 3))])
+def test_the_orders_share_stays_below_the_optimum_with_real_spares_and_tightens(n, T, h0):
+    """With ``orders`` (a service pays order / max_order, the initial stock's share given
+    back) the bound stays below the exact optimum of the problem whose services take real
+    spares that orders bring, and above the bound without it: services beyond the initial
+    stock pay their least share of an order."""
+    plain = toy(n, T, initial_stock=1, max_order=2)
+    c = plain.config
+    m = dataclasses.replace(plain, order_share=c.costs.order / c.max_order)
+    exact = brute_force(plain, h0, stock=c.initial_stock)
+    assert exact > brute_force(plain, h0)  # the spares cost something here
+    start = start_counts(m, np.array(h0))
+    best = search(m, start, iterations=30)
+    assert best.bound <= exact + 1e-6
+    assert best.bound > search(plain, start, iterations=30).bound + 1.0
+
+
+def test_build_charges_the_orders_share_only_when_asked(atlas):
+    cfg = FleetConfig(episode_shifts=10)
+    assert BoundModel.build(cfg, atlas, units=2).order_share == 0.0
+    m = BoundModel.build(cfg, atlas, units=2, orders=True)
+    assert m.order_share == cfg.costs.order / cfg.max_order == 12.5
+    prices = Prices.zeros(cfg)
+    plain = dataclasses.replace(m, order_share=0.0)
+    start = start_counts(m, np.array([m.H] * cfg.n_vehicles))  # no pad wears out in 10 shifts
+    # nobody is serviced: the bound only gives back the initial stock's share
+    gap = bound(plain, solve(plain, prices), prices, start) - bound(
+        m, solve(m, prices), prices, start
+    )
+    assert gap == pytest.approx(12.5 * cfg.initial_stock)
 
 
 def test_the_credit_is_priced_as_the_policies_net_cost_and_never_capped():
