@@ -34,8 +34,7 @@ from numpy.typing import NDArray
 from agents.fleet.learning.dispatch import DUTIES, cover_needs
 from agents.fleet.policies.view import FleetLayout, FleetView
 from brake_env.env.fleet.agent_view import vehicle_views
-from brake_env.env.fleet.rules import action_mask
-from brake_env.env.fleet.spaces import FLEET_FEATURES, N_VF, read_observation
+from brake_env.env.fleet.spaces import FLEET_FEATURES, N_VF
 from brake_env.env.fleet.spares import SparesRule
 
 
@@ -154,15 +153,16 @@ class MarlFleetPolicy:
             raise ValueError(f"MarlFleetPolicy: the layout has no hot-route RUL mean:"
                              f" {self._layout}")  # fmt: skip
 
-    def logits(self, obs: NDArray[Any]) -> tuple[NDArray[np.float32], NDArray[np.bool_]]:
-        """(logits (n, 4), mask (n, 4)) for one observation."""
+    def logits(
+        self, obs: NDArray[Any], view: FleetView | None = None
+    ) -> tuple[NDArray[np.float32], NDArray[np.bool_]]:
+        """(logits (n, 4), mask (n, 4)) for one observation (``view``: it read already)."""
         import torch
 
         n = self.config.n_vehicles
-        o = read_observation(obs, n, self._layout.per_vehicle)
-        f = o.fleet
-        mask = action_mask(o.down, o.window, f["stock"], f["free_bays"], self.config.max_order)
-        views = torch.as_tensor(shared_views(obs, self.config, self._layout, self.base))
+        view = FleetView.read(obs, self._layout) if view is None else view
+        mask = view.mask(self.config.max_order)
+        views = torch.as_tensor(shared_views(obs, self.config, self._layout, self.base, view))
         with torch.no_grad():
             logits = self.actor(views.unsqueeze(0))[0].numpy()
         return logits, mask[: 4 * n].reshape(n, 4)
@@ -174,7 +174,8 @@ class MarlFleetPolicy:
         obs = np.asarray(observation, dtype=np.float64)
         if obs.ndim == 2:
             return np.stack([self.predict(o, deterministic=deterministic)[0] for o in obs]), state
-        logits, mask = self.logits(obs)
+        view = FleetView.read(obs, self._layout)  # read once: mask, base rule, repair, order
+        logits, mask = self.logits(obs, view)
         masked = np.where(mask, logits, -np.inf)
         if deterministic:
             duties = masked.argmax(axis=1)
@@ -183,10 +184,9 @@ class MarlFleetPolicy:
             p /= p.sum(axis=1, keepdims=True)
             duties = np.array([np.random.default_rng().choice(4, p=row) for row in p])
         if self.cover:
-            duties = cover_needs(self.config, duties, FleetView.read(obs, self._layout))
-        f = read_observation(obs, self.config.n_vehicles, self._layout.per_vehicle).fleet
+            duties = cover_needs(self.config, duties, view)
         fits = int((duties == 3).sum())
-        q = self.spares.order(f["stock"], f["in_transit"], fits, self.config.max_order)
+        q = self.spares.order(view.stock, view.transit, fits, self.config.max_order)
         return np.append(duties, q).astype(np.int64), state
 
     def __repr__(self) -> str:
@@ -207,14 +207,17 @@ def hot_rul_observation(obs: NDArray[Any], layout: FleetLayout) -> NDArray[np.fl
 
 
 def shared_views(
-    obs: NDArray[Any], config: Any, layout: FleetLayout, base: Any = None
-) -> NDArray[np.float32]:
+    obs: NDArray[Any], config: Any, layout: FleetLayout, base: Any = None,
+    view: FleetView | None = None,
+) -> NDArray[np.float32]:  # fmt: skip
     """(n, d): every vehicle's view of ``obs`` (RUL as ``layout`` says), with ``base``'s
-    duty for it last when a base rule is given (:class:`MarlFleetPolicy`)."""
+    duty for it last when a base rule is given (:class:`MarlFleetPolicy`; ``view``: the
+    observation read already)."""
     views = vehicle_views(hot_rul_observation(obs, layout), config, True)
     if base is None:
         return views
-    return with_base_duty(views, base.act(FleetView.read(obs, layout))[: config.n_vehicles])
+    view = FleetView.read(obs, layout) if view is None else view
+    return with_base_duty(views, base.act(view)[: config.n_vehicles])
 
 
 def with_base_duty(views: NDArray[Any], duty: NDArray[Any]) -> NDArray[np.float32]:
