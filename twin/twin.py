@@ -50,6 +50,7 @@ from brake_env.prognostics.protocol import EventBatch, Predictor, RULEstimate
 from twin.calibration import fit_calibration
 from twin.config import TwinCalibration, TwinConfig
 from twin.fleet import TwinFleet
+from twin.misfit import misfit
 from twin.posterior import TwinGrid
 
 F64 = NDArray[np.float64]
@@ -105,6 +106,11 @@ class DigitalTwin(Predictor):
 
     def _fit(self, train_log: pd.DataFrame) -> None:
         self.set_calibration(fit_calibration(self.atlas, train_log, self.config, self.wear))
+
+    def self_check(self, log: pd.DataFrame) -> dict[str, Any]:
+        """The misfit test of :mod:`twin.misfit` on ``log``: does each pad's wear rate read
+        the same from the early and the late shares of its events?"""
+        return misfit(self._require_grid(), log).to_dict()
 
     def fitted_wear_coeff(self) -> float | None:
         """The prior's median K (None before fit)."""

@@ -25,9 +25,10 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from brake_env._validate import plain_numbers
+from brake_env.model.effects import resolve_effects
 from brake_env.model.lookup import GridLookup, trapezoid_weights
 from brake_env.model.params import BrakeModel
-from brake_env.model.physics import EventModifier, critical_volume, end_of_life, simulate_events
+from brake_env.model.physics import critical_volume, end_of_life, simulate_events
 
 F64 = NDArray[np.float64]
 FORMAT_VERSION = 2
@@ -55,6 +56,8 @@ class AtlasSpec:
         n_mass: Grid nodes over the mass range [-] (default: every 2 t).
         n_slope: Grid nodes over the slope range [-] (default: every 0.5 deg).
         layer_step: Pad-volume fraction between layers [-] (the paper: 1%).
+        effects: Unmodelled effects built into the physics, as canonical text
+            ``NAME:P=V,...`` (:mod:`brake_env.model.effects`); empty: the nominal physics.
     """
 
     model: BrakeModel = field(default_factory=BrakeModel)
@@ -62,8 +65,17 @@ class AtlasSpec:
     n_mass: int = 7
     n_slope: int = 21
     layer_step: float = 0.01
+    effects: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
+        if isinstance(self.effects, list):  # from JSON
+            object.__setattr__(self, "effects", tuple(self.effects))
+        if not isinstance(self.effects, tuple) or not all(
+            isinstance(e, str) and e.strip() for e in self.effects
+        ):
+            raise ValueError(
+                f"AtlasSpec.effects must be a tuple of effect texts, got {self.effects!r}"
+            )
         plain_numbers(self)
         for name in ("n_speed", "n_mass", "n_slope"):
             n = getattr(self, name)
@@ -82,10 +94,14 @@ class AtlasSpec:
         return cls(model=model, **data)
 
     def content_hash(self) -> str:
-        """SHA-256 of the spec, the physics version and the file format version."""
+        """SHA-256 of the spec (its effects included), the physics version and the file
+        format version. A nominal spec hashes as before effects existed, so its cached
+        atlases and saved models stay valid."""
+        spec = self.to_dict()
+        if not spec["effects"]:
+            del spec["effects"]
         payload = json.dumps(
-            {"format": FORMAT_VERSION, "physics": PHYSICS_VERSION, "spec": self.to_dict()},
-            sort_keys=True,
+            {"format": FORMAT_VERSION, "physics": PHYSICS_VERSION, "spec": spec}, sort_keys=True
         )
         return hashlib.sha256(payload.encode()).hexdigest()
 
@@ -119,17 +135,18 @@ class Atlas:
         cls,
         spec: AtlasSpec | None = None,
         progress: Callable[[int], object] | None = None,
-        modifier: EventModifier | None = None,
     ) -> Atlas:
         """Evaluate the physics on every grid node of every layer, vectorised.
 
         Layers go in chunks of ``_LAYERS_PER_CHUNK`` (cache-sized arrays); ``progress`` is
-        called with the number of layers finished after each chunk. ``modifier`` (optional,
-        ``sim2real`` effects) changes the in-event physics; the spec and its hash do not
-        record it, so such an atlas is for in-memory use and must not enter the cache.
+        called with the number of layers finished after each chunk. The spec's effects
+        (:mod:`brake_env.model.effects`) change the in-event physics, and a sensor effect
+        what the logged mean temperature is; both are in the spec, so in the hash.
         """
         spec = spec or AtlasSpec()
         t0 = time.perf_counter()
+        effects = resolve_effects(spec.effects, spec.model)
+        modifier = effects.modifier
         env = spec.model.envelope
         speed = np.linspace(*env.speed_kmh, spec.n_speed) / 3.6
         mass = np.linspace(*env.mass_kg, spec.n_mass)
@@ -162,6 +179,7 @@ class Atlas:
                 fields[name][lo:hi] = getattr(resp, name)
             if progress:
                 progress(hi - lo)
+        effects.apply_sensor(fields, spec.model.brake.start_temp_c)
         return cls(spec, volumes, speed, mass, slope, fields, v_crit, time.perf_counter() - t0)
 
     @property

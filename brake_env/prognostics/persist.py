@@ -29,7 +29,7 @@ from typing import Any
 
 import numpy as np
 
-from brake_env.model.atlas import Atlas
+from brake_env.model.atlas import Atlas, AtlasSpec, cached_atlas
 from brake_env.output import PLAIN_KINDS, read_arrays, write_arrays, write_text
 from brake_env.prognostics.protocol import Predictor
 from brake_env.prognostics.registry import make_predictor
@@ -137,8 +137,19 @@ def check_atlas(header: Mapping[str, Any], atlas_hash: str, path: str | os.PathL
         )
 
 
-def load_predictor(path: str | os.PathLike[str], atlas: Atlas) -> Predictor:
-    """A predictor saved by :func:`save_predictor`, ready to ``reset`` and ``update``.
+def model_atlas(
+    header: Mapping[str, Any], cache_dir: str | os.PathLike[str] | None = None
+) -> Atlas:
+    """The atlas a saved model was fitted on, rebuilt from the spec its header records (its
+    effects included) through the cache, and checked against the recorded hash."""
+    spec = AtlasSpec.from_dict(header.get("atlas_spec") or {})
+    check_atlas(header, spec.content_hash(), "with that header")
+    return cached_atlas(spec, cache_dir)
+
+
+def load_predictor(path: str | os.PathLike[str], atlas: Atlas | None = None) -> Predictor:
+    """A predictor saved by :func:`save_predictor`, ready to ``reset`` and ``update``; on its
+    own atlas (:func:`model_atlas`) unless ``atlas`` is given, which must be that one.
 
     Raises:
         FileNotFoundError: No model at ``path``.
@@ -147,6 +158,7 @@ def load_predictor(path: str | os.PathLike[str], atlas: Atlas) -> Predictor:
     """
     path = Path(path)
     header = read_header(path)
+    atlas = atlas if atlas is not None else model_atlas(header)
     check_atlas(header, atlas.content_hash, path)
     arrays = read_arrays(path / ARRAYS, str(header["arrays_sha256"]), f"model {path}")
     name = str(header["predictor"])

@@ -147,6 +147,13 @@ class Predictor(ABC):
         the predictor learns no K or is not fitted."""
         return None
 
+    def self_check(self, log: pd.DataFrame) -> Mapping[str, Any] | None:
+        """The fitted predictor's test of its own model on ``log`` (no truth read), or None
+        when it has none. A mapping with at least ``warns`` (bool) and ``message`` (one
+        line naming the size of the misfit and what to do): ``fit`` and ``predict`` print
+        it, record it and refuse on it with ``--strict``. The twin's is :mod:`twin.misfit`."""
+        return None
+
     def _fit(self, train_log: pd.DataFrame) -> None:  # noqa: B027 - optional hook
         pass
 

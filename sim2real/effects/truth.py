@@ -31,14 +31,7 @@ from brake_env.model.atlas import Atlas, AtlasSpec, cached_atlas
 from brake_env.model.simulator import F64, Trajectory, simulate_runs
 from brake_env.model.wear import WearModel
 from sim2real.effects.carry_over import carry_over_runs
-from sim2real.effects.interface import (
-    Effect,
-    InEventPhysics,
-    SensorContext,
-    apply_sensor,
-    effects_key,
-    split_kinds,
-)
+from sim2real.effects.interface import Effect, SensorContext, apply_sensor, split_kinds
 
 _ATLAS_CACHE: dict[str, Atlas] = {}
 _CACHE_MAX = 32
@@ -64,15 +57,17 @@ class TruthSpec:
 
 
 def truth_atlas(spec: AtlasSpec, effects: Sequence[Effect]) -> Atlas:
-    """The atlas of ``spec`` with the in-event effects' physics (nominal: ``cached_atlas``)."""
+    """The atlas of ``spec`` with the in-event effects' physics, recorded in its spec (and so
+    its hash: ``spec.effects``); built once per process, cached on disk as any atlas."""
     inevent = [e for e in effects if e.kind == "in-event" and not e.is_neutral]
     if not inevent:
         return cached_atlas(spec)
-    key = f"{spec.content_hash()}|{effects_key(inevent)}"
+    with_effects = dataclasses.replace(spec, effects=tuple(e.key for e in inevent))
+    key = with_effects.content_hash()
     if key not in _ATLAS_CACHE:
         if len(_ATLAS_CACHE) >= _CACHE_MAX:
             _ATLAS_CACHE.pop(next(iter(_ATLAS_CACHE)))
-        _ATLAS_CACHE[key] = Atlas.build(spec, modifier=InEventPhysics(inevent, spec.model))
+        _ATLAS_CACHE[key] = cached_atlas(with_effects)
     return _ATLAS_CACHE[key]
 
 

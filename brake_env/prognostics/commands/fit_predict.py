@@ -28,9 +28,8 @@ import sys
 import time
 from collections.abc import Callable
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
-import numpy as np
 import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
@@ -41,7 +40,6 @@ from brake_env.cli.common import (
     add_runner_args,
     add_strict_arg,
     int_at_least,
-    load_atlas,
     make_runner,
     out_dir,
 )
@@ -49,12 +47,16 @@ from brake_env.data.datasets import find_logs
 from brake_env.data.plausibility import warn_fitted, warn_implausible
 from brake_env.data.runs import run_ends
 from brake_env.data.schema import read_event_log
-from brake_env.model.atlas import Atlas, AtlasSpec, cached_atlas
+from brake_env.model.atlas import Atlas, AtlasSpec
 from brake_env.output import atomic_path, table, write_json
 from brake_env.prognostics.commands import predict_units
+from brake_env.prognostics.commands.fit_effects import add_effect_args, fit_atlas
+from brake_env.prognostics.commands.fleet_plot import plot_fleet
+from brake_env.prognostics.commands.self_check import self_check
 from brake_env.prognostics.persist import (
     check_atlas,
     load_predictor,
+    model_atlas,
     read_header,
     save_predictor,
 )
@@ -62,11 +64,6 @@ from brake_env.prognostics.protocol import MEASURED, EventBatch, Predictor, iter
 from brake_env.prognostics.registry import make_predictor, predictor_names
 from brake_env.runner import UnitsFailed
 from brake_env.units import UnitStore, open_store
-
-if TYPE_CHECKING:
-    from matplotlib.figure import Figure
-
-TRACE_PADS = 12  # pads drawn in the figure's trace panel (the most urgent)
 
 
 def register(sub: argparse._SubParsersAction[Any]) -> None:
@@ -84,6 +81,7 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
     )
     f.add_argument("--predictor", required=True, choices=predictor_names())
     f.add_argument("--atlas", default=None, help="atlas .npz to use instead of the cache")
+    add_effect_args(f)
     add_strict_arg(f)
     f.set_defaults(func=cmd_fit)
 
@@ -131,7 +129,7 @@ def cmd_fit(args: argparse.Namespace) -> Path:
         raise ValueError(f"--out {out}: exists and is not a directory")
     path = training_log_path(args.data)
     log = read_event_log(path)
-    atlas = load_atlas(args)
+    atlas = fit_atlas(args)
     warn_implausible(log, atlas, "fit", lives=True, strict=args.strict)
     pred = make_predictor(args.predictor, atlas, args.seed)
     if type(pred).get_state is Predictor.get_state:
@@ -150,6 +148,8 @@ def cmd_fit(args: argparse.Namespace) -> Path:
         "events": len(log),
         "censored_runs": censored,
         "fit_seconds": fit_s,
+        "effects": list(atlas.spec.effects),
+        "self_check": self_check(pred, log, "fit", args.strict),
     }
     save_predictor(pred, out, atlas, seed=args.seed, info=info)
     meta, _ = pred.get_state()
@@ -167,9 +167,14 @@ def cmd_fit(args: argparse.Namespace) -> Path:
         print(table(rows))
     print(
         f"fitted {args.predictor} on {n_runs} runs ({len(censored)} censored) in"
-        f" {fit_s:.1f} s; wrote {out}/ (predictor.json, arrays.npz)"
+        f" {fit_s:.1f} s{_with_effects(atlas)}; wrote {out}/ (predictor.json, arrays.npz)"
     )
     return out
+
+
+def _with_effects(atlas: Atlas) -> str:
+    effects = atlas.spec.effects
+    return f" on the physics with {' + '.join(effects)}" if effects else ""
 
 
 def censored_runs(log: pd.DataFrame) -> list[str]:
@@ -206,7 +211,8 @@ def cmd_predict(args: argparse.Namespace) -> pd.DataFrame:
             traces, rows = _predict_units(pred, (header, atlas), runs, args, store)
         finally:
             predict_units.forget()
-        fleet = _finish(out, (traces, rows), missing, pred, (header, args))
+        checks = _checks(pred, log, header, args.strict)
+        fleet = _finish(out, (traces, rows), (missing, checks), pred, (header, args))
         store.discard()  # its own files only: anything else in OUT/units/ stays
     print(table(_display_rows(fleet)))
     print(
@@ -216,15 +222,26 @@ def cmd_predict(args: argparse.Namespace) -> pd.DataFrame:
     return fleet
 
 
+def _checks(
+    pred: Predictor, log: pd.DataFrame, header: dict[str, Any], strict: bool
+) -> dict[str, Any]:
+    """The model's self-check on this log, and the one its fit recorded (repeated as a
+    warning when it warned: a model fitted on a misfitting log stays suspect)."""
+    fitted = (header.get("info") or {}).get("self_check") or {}
+    if fitted.get("warns"):
+        print(f"brakewear predict: warning: at fit: {fitted['message']}", file=sys.stderr)
+    return {"log": self_check(pred, log, "predict", strict), "fit": fitted}
+
+
 def _finish(
     out: Path,
     outputs: tuple[pd.DataFrame, pd.DataFrame],
-    missing: dict[str, list[str]],
+    found: tuple[dict[str, list[str]], dict[str, Any]],
     pred: Predictor,
     context: tuple[dict[str, Any], argparse.Namespace],
 ) -> pd.DataFrame:
     """Write the outputs of the units' ``(traces, rows)``; the table."""
-    (traces, rows), (header, args) = outputs, context
+    (traces, rows), (header, args), (missing, checks) = outputs, context, found
     fleet = predict_units.sort_table(rows, missing)
     warnings = [
         f"pad {run}: {', '.join(ch)} missing at every event; {pred.name} cannot use"
@@ -234,7 +251,8 @@ def _finish(
     ]
     for w in warnings:
         print(f"predict: warning: {w}", file=sys.stderr)
-    _write_outputs(out, fleet, traces, pred, header, args, warnings=warnings)
+    warnings += [f"{at}: {c['message']}" for at, c in checks.items() if c.get("warns")]
+    _write_outputs(out, fleet, traces, pred, (header, checks), args, warnings=warnings)
     return fleet
 
 
@@ -283,9 +301,10 @@ def _atlas_loader(header: dict[str, Any], args: argparse.Namespace) -> Callable[
         atlas = Atlas.load(args.atlas)
         check_atlas(header, atlas.content_hash, args.model)
         return lambda: atlas
-    spec = AtlasSpec.from_dict(header.get("atlas_spec") or {})
-    check_atlas(header, spec.content_hash(), args.model)
-    return lambda: cached_atlas(spec, args.cache_dir)
+    check_atlas(
+        header, AtlasSpec.from_dict(header.get("atlas_spec") or {}).content_hash(), args.model
+    )
+    return lambda: model_atlas(header, args.cache_dir)
 
 
 def missing_channels(log: pd.DataFrame) -> dict[str, list[str]]:
@@ -326,11 +345,12 @@ def _write_outputs(
     fleet: pd.DataFrame,
     traces: pd.DataFrame,
     pred: Predictor,
-    header: dict[str, Any],
+    model: tuple[dict[str, Any], dict[str, Any]],
     args: argparse.Namespace,
     *,
     warnings: list[str],
 ) -> None:
+    header, checks = model
     with atomic_path(out / "fleet.csv") as tmp:
         fleet.to_csv(tmp, index=False)
     doc = {
@@ -338,8 +358,10 @@ def _write_outputs(
         "predictor": pred.name,
         "log": str(args.log),
         "atlas_hash": header["atlas_hash"],
+        "effects": list((header.get("atlas_spec") or {}).get("effects") or []),
         "interval_level": pred.interval_level,
         "warnings": warnings,
+        "self_check": checks,
         "pads": [
             {**r, "missing_channels": [c for c in r["missing_channels"].split(";") if c]}
             for r in fleet.to_dict("records")
@@ -350,36 +372,3 @@ def _write_outputs(
         pq.write_table(pa.Table.from_pandas(traces, preserve_index=False), tmp, compression="zstd")
     with atomic_path(out / "fleet.png") as tmp:
         plot_fleet(fleet, traces, pred.name, Path(args.log).name).savefig(tmp, dpi=100)
-
-
-def plot_fleet(fleet: pd.DataFrame, traces: pd.DataFrame, name: str, log_name: str) -> Figure:
-    """PNG of the fleet: current RUL per pad with its interval (most urgent on top), and the
-    RUL along the logged events of the most urgent pads."""
-    from matplotlib.figure import Figure  # matplotlib only when plotting (start-up time)
-
-    n = len(fleet)
-    fig = Figure(figsize=(12, max(3.5, 1.0 + 0.28 * n)), layout="constrained")
-    bars, lines = fig.subplots(1, 2, width_ratios=(1, 1.4))
-    y = np.arange(n)[::-1]
-    rul = fleet["rul_mean"].to_numpy()
-    flagged = fleet["missing_channels"].to_numpy() != ""
-    bars.barh(y, rul, color=np.where(flagged, "tab:red", "tab:green"), alpha=0.8)
-    if "rul_lower" in fleet:
-        err = np.vstack([rul - fleet["rul_lower"], fleet["rul_upper"] - rul]).clip(0)
-        bars.errorbar(rul, y, xerr=err, fmt="none", ecolor="k", capsize=2, lw=0.8)
-    pairs = zip(fleet["run_id"], fleet["missing_channels"], strict=True)
-    labels = [r + (f" (no {m})" if m else "") for r, m in pairs]
-    bars.set_yticks(y, labels, fontsize=8)
-    note = " (red: a channel missing for the whole pad)" if flagged.any() else ""
-    bars.set_xlabel("RUL now [braking events]" + note)
-    bars.set_title(f"{name}: {n} pads of {log_name}, most urgent on top")
-    for run_id in fleet["run_id"][:TRACE_PADS]:
-        t = traces[traces["run_id"] == run_id]
-        step = max(1, len(t) // 2000)
-        lines.plot(t["event"].to_numpy()[::step], t["rul_mean"].to_numpy()[::step], label=run_id)
-    lines.set_xlabel("events since installation")
-    lines.set_ylabel("RUL [braking events]")
-    lines.set_title(f"RUL along the log ({min(n, TRACE_PADS)} most urgent pads)")
-    lines.legend(fontsize=7, ncols=2)
-    lines.set_ylim(bottom=0)
-    return fig

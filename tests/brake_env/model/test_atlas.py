@@ -110,6 +110,8 @@ def _nudged(v):
         return v + 1
     if isinstance(v, float):
         return v * 1.01 + 1e-3
+    if v == ():  # the effects: none -> one
+        return ("heat_partition:phi=0.1",)
     return (v[0], v[1] * 0.99)  # a (min, max) range
 
 

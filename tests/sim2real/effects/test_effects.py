@@ -29,7 +29,7 @@ def _neutral(cls: type[Effect]) -> Effect:
 def test_in_event_effect_at_neutral_builds_the_nominal_atlas_bit_for_bit(cls: type[Effect]) -> None:
     spec = AtlasSpec(n_speed=4, n_mass=2, n_slope=3)
     nominal = Atlas.build(spec)
-    changed = Atlas.build(spec, modifier=InEventPhysics([_neutral(cls)], spec.model))
+    changed = Atlas.build(dataclasses.replace(spec, effects=(_neutral(cls).key,)))
     assert changed.critical_volume == nominal.critical_volume
     for name, field in nominal.fields.items():
         assert np.array_equal(changed.fields[name], field), name
@@ -40,7 +40,7 @@ def test_in_event_effect_at_mid_changes_the_physics(cls: type[Effect]) -> None:
     spec = AtlasSpec(n_speed=4, n_mass=2, n_slope=3)
     nominal = Atlas.build(spec)
     mid = cls(**{p.name: p.mid for p in cls.params})
-    changed = Atlas.build(spec, modifier=InEventPhysics([mid], spec.model))
+    changed = Atlas.build(dataclasses.replace(spec, effects=(mid.key,)))
     field = "wear_per_k_m3" if "wear" in cls.name else "temp_mean_c"
     n = min(changed.n_layers, nominal.n_layers)
     assert not np.allclose(changed.fields[field][:n], nominal.fields[field][:n])
