@@ -10,7 +10,7 @@ import pytest
 from brake_env.data.datasets import Dataset
 from brake_env.prognostics.protocol import iter_runs
 from twin import DigitalTwin
-from twin.misfit import MIN_EVENTS, MIN_PADS, Z_THRESHOLD, drift, misfit
+from twin.misfit import MIN_EVENTS, MIN_PADS, T_THRESHOLD, drift, misfit
 
 
 def _steeper(log: pd.DataFrame, kelvin: float) -> pd.DataFrame:
@@ -27,7 +27,7 @@ def test_quiet_on_the_atlas_own_physics(fitted: DigitalTwin, dataset: Dataset) -
     for split in ("train", "id"):
         found = misfit(fitted.grid, dataset.logs[split])
         assert found.checked and not found.warns, found.message()
-        assert abs(found.z) < Z_THRESHOLD and abs(np.log(found.factor)) < 0.05
+        assert abs(found.t) < T_THRESHOLD and abs(np.log(found.factor)) < 0.05
     assert fitted.self_check(dataset.logs["train"])["warns"] is False
 
 
@@ -39,7 +39,7 @@ def test_loud_on_a_temperature_course_the_atlas_does_not_have(
     found = misfit(fitted.grid, log)
     # The windows need K that drift the same way on every pad, beyond the threshold, and
     # the opposite way when the course is shallower instead.
-    assert found.warns and abs(found.z) > Z_THRESHOLD
+    assert found.warns and abs(found.t) > T_THRESHOLD
     sign = np.sign(found.z)
     assert all(np.sign(z) == sign for z in found.per_pad.values())
     assert np.sign(np.log(found.factor)) == sign

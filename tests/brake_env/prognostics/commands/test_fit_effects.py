@@ -146,7 +146,7 @@ def test_misfit_is_warned_recorded_and_refused_with_strict(
     assert main([*argv, "--atlas", str(small), "--out", str(tmp_path / "m")]) == 0
     assert "warning: the twin's physics does not fit this log" in capsys.readouterr().err
     check = read_header(tmp_path / "m")["info"]["self_check"]
-    assert check["warns"] is True and abs(check["z"]) > check["threshold"]
+    assert check["warns"] is True and abs(check["t"]) > check["threshold"]
     assert main([*argv, "--atlas", str(small), "--out", str(tmp_path / "s"), "--strict"]) == 2
     assert "(--strict)" in capsys.readouterr().err
     assert not (tmp_path / "s").exists()
