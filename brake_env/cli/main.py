@@ -14,7 +14,7 @@ from brake_env.cli import demo, simulate
 from brake_env.cli.common import Parser, plugins
 from brake_env.data.plausibility import PlausibilityWarning
 from brake_env.output import check_output, mark_output
-from brake_env.prognostics.commands import evaluate, fit_predict
+from brake_env.prognostics.commands import backtest, evaluate, fit_predict
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -25,6 +25,7 @@ def build_parser() -> argparse.ArgumentParser:
     demo.register(sub)
     evaluate.register(sub)
     fit_predict.register(sub)
+    backtest.register(sub)
     # Commands of the downstream packages (twin, baselines, agents, sim2real) register
     # themselves as plug-ins, so brake_env never imports them (imports flow one way:
     # docs/architecture.md).

@@ -1,5 +1,6 @@
 """``brakewear fit --effect`` and ``--diagnosis``: a predictor fitted on the physics with an
-unmodelled effect (docs/results/sim2real.md, "Feeding the diagnosis back").
+unmodelled effect, the preset's or an ``--atlas`` file's physics with the effect added
+(docs/results/sim2real.md, "Feeding the diagnosis back").
 
 The effect goes into the atlas's spec (:attr:`brake_env.model.atlas.AtlasSpec.effects`), so
 the atlas is built with it (and cached under its own hash like the nominal one), the saved
@@ -11,6 +12,7 @@ parameters; a diagnosis that abstained is refused with its reason.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 from pathlib import Path
 from typing import Any
@@ -51,12 +53,17 @@ def requested_effects(args: argparse.Namespace) -> tuple[str, ...]:
         texts.append(diagnosed_effect(args.diagnosis))
     if not texts:
         return ()
-    if getattr(args, "atlas", None):
-        raise ValueError(
-            "--atlas with --effect/--diagnosis: an atlas file carries its own physics; give"
-            " the effect alone (the atlas is built with it) or an atlas file built with it"
-        )
     return canonical_effects(texts, BrakeModel.preset(args.preset))
+
+
+def effect_spec(args: argparse.Namespace, effects: tuple[str, ...]) -> AtlasSpec:
+    """The spec of the atlas with ``effects``: the preset's, or that of the ``--atlas`` file
+    (its grid and physics, its own effects kept, the new ones added)."""
+    base = Atlas.load(args.atlas).spec if getattr(args, "atlas", None) else None
+    if base is None:
+        return AtlasSpec(model=BrakeModel.preset(args.preset), effects=effects)
+    both = canonical_effects([*base.effects, *effects], base.model)
+    return dataclasses.replace(base, effects=both)
 
 
 def diagnosed_effect(folder: str | Path) -> str:
@@ -92,6 +99,6 @@ def fit_atlas(args: argparse.Namespace) -> Atlas:
     effects = requested_effects(args)
     if not effects:
         return load_atlas(args)
-    spec = AtlasSpec(model=BrakeModel.preset(args.preset), effects=effects)
+    spec = effect_spec(args, effects)
     with tqdm(desc="atlas layers", unit="layer", disable=args.quiet, delay=0.5) as bar:
         return cached_atlas(spec, args.cache_dir, False, bar.update)

@@ -83,6 +83,10 @@ def test_a_model_fitted_on_an_effect_atlas_file_is_not_predicted_on_the_nominal_
     err = capsys.readouterr().err
     assert Atlas.load(nominal_file).content_hash[:16] in err
     assert Atlas.load(effect_file).content_hash[:16] in err
+    # --effect on an --atlas file: that file's physics with the effect, the same atlas.
+    added = _fit(tmp_path, data, "--atlas", str(nominal_file), "--effect", PHI)
+    assert main([*added, "--out", str(tmp_path / "m2")]) == 0
+    assert read_header(tmp_path / "m2")["atlas_hash"] == Atlas.load(effect_file).content_hash
 
 
 def test_fit_diagnosis_takes_the_named_effect_and_refuses_an_abstention(
@@ -117,7 +121,7 @@ def test_fit_diagnosis_takes_the_named_effect_and_refuses_an_abstention(
         (["--effect", "newton_cooling:tau_s=60"], "acts between events"),
         (["--effect", "heat_partition:phi=0.9"], "phi"),
         (["--effect", "glazing:g=1"], "unknown effect 'glazing'"),
-        (["--effect", PHI, "--atlas", "a.npz"], "--atlas with --effect"),
+        (["--effect", PHI, "--effect", "heat_partition:phi=0.1"], "more than once"),
     ],
 )
 def test_effects_it_cannot_take_are_refused_by_name(
