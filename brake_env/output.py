@@ -357,42 +357,7 @@ class Manifest:
 
 
 # ---------------------------------------------------------------------- output folders
-OUTPUT_MARK = ".brakewear.json"  # in every --out a command wrote: {"format": 1, "command": ...}
+# In every --out a command wrote: {"format": 1, "command": ..., "args": [...], "pid": ...};
+# written, read and held by brake_env.run_lock.hold_output.
+OUTPUT_MARK = ".brakewear.json"
 OUTPUT_MARK_FORMAT = 1
-
-
-def output_owner(directory: str | os.PathLike[str]) -> str | None:
-    """The command whose :data:`OUTPUT_MARK` is in ``directory`` (None: no mark, or not a
-    mark this project wrote)."""
-    try:
-        mark = json.loads((Path(directory) / OUTPUT_MARK).read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError):
-        return None
-    command = mark.get("command") if isinstance(mark, dict) else None
-    return command if isinstance(command, str) else None
-
-
-def check_output(directory: str | os.PathLike[str], command: str) -> None:
-    """Refuse ``directory`` as ``command``'s output when another command wrote it (its
-    :data:`OUTPUT_MARK` names that command), or when it is not a directory.
-
-    Raises:
-        ValueError: Naming the folder and the command that wrote it.
-    """
-    d = Path(directory)
-    if d.exists() and not d.is_dir():
-        raise ValueError(f"--out {d}: exists and is not a directory")
-    owner = output_owner(d)
-    if owner is not None and owner != command:
-        raise ValueError(
-            f"--out {d} holds the output of `brakewear {owner}` ({d / OUTPUT_MARK}); write"
-            f" `brakewear {command}` to another --out (nothing was changed)"
-        )
-
-
-def mark_output(directory: str | os.PathLike[str], command: str) -> None:
-    """Mark ``directory``, if it exists, as ``command``'s output (:func:`check_output`
-    then refuses it to other commands). A mark already there is kept."""
-    d = Path(directory)
-    if d.is_dir() and output_owner(d) is None:
-        write_json({"format": OUTPUT_MARK_FORMAT, "command": command}, d / OUTPUT_MARK)

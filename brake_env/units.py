@@ -11,8 +11,10 @@ Opening a store, before any long work:
   project did not write are never adopted, moved or deleted;
 - compares the run's settings with those the store was written with, naming what differs;
 - checks every unit file (whole JSON, its own key, the SHA-256 of its content and of its
-  arrays): a damaged or edited one is moved to ``damaged/`` and its unit redone, naming the
-  file and the unit on stderr;
+  arrays): a damaged or edited one is moved to ``damaged/`` as ``<name>.<n>.json`` (a number
+  no copy there has: never overwritten, and no command deletes ``damaged/``) and its unit
+  redone, naming the file and the unit on stderr. Only files named for a unit of the run,
+  or for the key they hold, are the store's: a user's file named like a unit is left alone;
 - says how many of the run's units are done already ("resuming: K of N ...", stderr).
 """
 
@@ -24,7 +26,6 @@ import importlib.util
 import json
 import os
 import re
-import shutil
 import sys
 import weakref
 from collections.abc import Mapping, Sequence
@@ -120,7 +121,6 @@ class UnitStore:
         self.directory = Path(directory)
         self.command = command or "units"
         self._keys = list(keys)
-        self._aside: list[Path] = []  # unit files this store moved to damaged/
         _refuse_foreign(self.directory)  # before the lock file is put there
         self.directory.mkdir(parents=True, exist_ok=True)
         self._lock = acquire(self.directory / LOCK, self.command)
@@ -166,31 +166,52 @@ class UnitStore:
         return want
 
     def _set_aside_damaged(self, keys: Sequence[str]) -> None:
-        """Move every damaged unit file (and its arrays) to ``damaged/``, naming it: its
-        unit is then not done, so the run redoes it."""
+        """Move every damaged unit file (and its arrays) to ``damaged/`` under a number no
+        copy there has, naming it: its unit is then not done, so the run redoes it."""
         by_stem = {self._stem(k).name: k for k in keys}
         for path in self._unit_files():
             key, problem = _unit_problem(path, self._stem)
             if problem is None:
                 continue
-            key = key or by_stem.get(path.stem) or _key_in_text(path) or "(unknown)"
-            aside = self.directory / DAMAGED
-            aside.mkdir(exist_ok=True)
-            for part in (path, path.with_suffix(".npz")):
-                if part.exists():
-                    shutil.move(part, aside / part.name)
-                    self._aside.append(aside / part.name)
+            key = key or by_stem.get(path.stem) or _held_key(path) or "(unknown)"
+            moved = self._move_aside(path)
             print(
                 f"{self.command}: unit {key}: {path} is damaged ({problem}); moved it to"
-                f" {aside}/ and will redo the unit",
+                f" {moved} and will redo the unit",
                 file=sys.stderr,
             )
 
+    def _move_aside(self, path: Path) -> Path:
+        """Move the unit file ``path`` and its arrays into ``damaged/`` as ``<stem>.<n>``,
+        ``n`` the first number free for both: a copy set aside is never overwritten."""
+        aside = self.directory / DAMAGED
+        if aside.exists() and not aside.is_dir():
+            raise ValueError(
+                f"{aside} is a file: the store sets damaged units aside in a folder of that"
+                " name; move the file away"
+            )
+        aside.mkdir(exist_ok=True)
+        n = 1
+        while any((aside / f"{path.stem}.{n}{s}").exists() for s in (".json", ".npz")):
+            n += 1
+        for part in (path, path.with_suffix(".npz")):
+            if part.exists():
+                os.rename(part, aside / f"{path.stem}.{n}{part.suffix}")  # the store's lock is held
+        return aside / f"{path.stem}.{n}.json"
+
     def _unit_files(self) -> list[Path]:
-        """The files named as units (not settings.json, a killed write's temp, or a file
-        someone else put here: those are left alone)."""
+        """This store's unit files: named as :meth:`_stem` names the unit of one of the
+        run's keys, or of the key the file holds. Anything else (settings.json, a killed
+        write's temp, a file someone put here, even one named like a unit) is not a unit:
+        never moved or deleted."""
+        stems = {self._stem(k).name for k in self._keys}
         names = (p for p in self.directory.glob("*.json") if not p.name.startswith("."))
-        return sorted(p for p in names if _UNIT_NAME.fullmatch(p.name))
+        held = (p for p in names if _UNIT_NAME.fullmatch(p.name))
+        return sorted(p for p in held if p.stem in stems or self._names_itself(p))
+
+    def _names_itself(self, path: Path) -> bool:
+        key = _held_key(path)
+        return key is not None and self._stem(key).name == path.stem
 
     def _stem(self, key: str) -> Path:
         digest = hashlib.sha256(key.encode()).hexdigest()[:10]
@@ -229,21 +250,28 @@ class UnitStore:
         return _decode(doc["result"], arrays)
 
     def discard(self) -> None:
-        """Close the store and remove what it wrote: its settings, lock, the run's units
-        and those it set aside; the directory too if that leaves it empty. Files it did not
-        write stay, named on stderr."""
+        """Close the store and remove what it wrote: its settings, lock and the run's units;
+        the directory too if that leaves it empty. The damaged files it set aside stay in
+        ``damaged/`` (no command deletes them), and so do files it did not write; both
+        named on stderr."""
         self.close()
-        mine = [self.directory / SETTINGS, self.directory / LOCK, *self._aside]
+        mine = [self.directory / SETTINGS, self.directory / LOCK]
         for key in self._keys:
             mine += [self._stem(key).with_suffix(".json"), self._stem(key).with_suffix(".npz")]
         for path in mine:
             path.unlink(missing_ok=True)
         remove_stale_temps(self.directory)
-        for d in (self.directory / DAMAGED, self.directory):
-            with contextlib.suppress(OSError):  # not empty: someone else's files are there
-                d.rmdir()
-        if self.directory.exists():
-            left = sorted(str(p.relative_to(self.directory)) for p in self.directory.rglob("*"))
+        with contextlib.suppress(OSError):  # not empty: set-aside or someone else's files
+            self.directory.rmdir()
+        aside = self.directory / DAMAGED
+        if aside.is_dir():
+            n = sum(1 for p in aside.iterdir() if p.suffix == ".json")
+            print(
+                f"{self.command}: kept {aside}/ ({n} damaged unit files set aside, by this run"
+                " or earlier ones): no command deletes them; delete them when done with them",
+                file=sys.stderr,
+            )
+        if left := sorted(p.name for p in self.directory.glob("*") if p != aside):
             print(
                 f"{self.command}: left {self.directory} in place: it holds files this run did"
                 f" not write ({', '.join(left[:5])}{', ...' if len(left) > 5 else ''})",
@@ -258,7 +286,9 @@ def _refuse_foreign(directory: Path) -> None:
     if not directory.is_dir() or (directory / SETTINGS).is_file():
         return
     found = sorted(
-        p.name for p in directory.iterdir() if p.name != LOCK and TEMP_MARK not in p.name
+        p.name
+        for p in directory.iterdir()
+        if p.name != LOCK and TEMP_MARK not in p.name and not (p.name == DAMAGED and p.is_dir())
     )
     if found:
         shown = ", ".join(found[:5]) + (", ..." if len(found) > 5 else "")
@@ -299,10 +329,17 @@ def _unit_problem(path: Path, stem_of: Any) -> tuple[str | None, str | None]:
     return key, None
 
 
-def _key_in_text(path: Path) -> str | None:
-    """The key written at the start of a cut unit file, if it got that far."""
-    found = re.search(r'"key":\s*"([^"]*)"', path.read_text(errors="replace"))
-    return found.group(1) if found else None
+def _held_key(path: Path) -> str | None:
+    """The unit key a file starts with (as :meth:`UnitStore.save` writes it, whole or cut
+    short after the key), None if it starts otherwise."""
+    try:
+        text = path.read_text(errors="replace")
+    except OSError:
+        return None
+    found = re.match(r'\{\s*"key":\s*("(?:[^"\\]|\\.)*")', text)
+    with contextlib.suppress(json.JSONDecodeError):
+        return json.loads(found.group(1)) if found else None
+    return None
 
 
 # ---------------------------------------------------------------------- encoding

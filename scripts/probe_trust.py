@@ -26,9 +26,16 @@ it to the check after every passing case and counts the checks shown able to fai
 (tests/scripts/test_probe_trust.py does the same for a few cases of each kind).
 
 Outcomes: ``clear error``, ``warning``, ``correct`` (as expected), ``other exception``
-(anything else raised, or an error whose message does not name what it should) and
+(anything else raised, or an error whose message does not name what it should),
 ``silent wrong answer`` (it ran where it should have failed or warned, or its answer fails
-its check). The goal is 0 in the last two columns; the script exits 1 otherwise.
+its check) and ``data loss`` (whatever else happened, a file the case must leave as it was,
+a user's or one set aside, is gone or changed: ``Case.lost``). The goal is 0 in the last
+three columns; the script exits 1 otherwise.
+
+Areas added for issue 44 (:func:`trust_cases`): files a unit store must never move or
+delete (a user's file named like a unit, copies set aside in ``damaged/``), output marks
+(written when a command starts, held while it runs, unreadable ones refused), and hostile
+pad ids in CSV cells and figure labels.
 """
 
 from __future__ import annotations
@@ -36,6 +43,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import copy
+import csv
 import functools
 import io
 import json
@@ -61,6 +69,7 @@ from baselines.physics import PhysicsPredictor
 from baselines.window import WindowPredictor
 from brake_env import units
 from brake_env.cli.main import main as brakewear
+from brake_env.csv_safe import plain_text, write_csv
 from brake_env.data.datasets import DatasetSpec, make_dataset, write_dataset
 from brake_env.data.plausibility import PlausibilityWarning, warn_fitted, warn_implausible
 from brake_env.data.schema import read_event_log, write_event_log
@@ -73,7 +82,7 @@ from brake_env.env.fleet.wrappers import ExpectedRULObservation, FleetRULObserva
 from brake_env.env.wrappers import RULObservation
 from brake_env.model.atlas import Atlas, AtlasSpec
 from brake_env.model.regime import WearRegime
-from brake_env.output import table, write_arrays
+from brake_env.output import OUTPUT_MARK, table, write_arrays
 from brake_env.prognostics.duty import route_rul
 from brake_env.prognostics.fleet import select
 from brake_env.prognostics.persist import ARRAYS, HEADER, load_predictor, save_predictor
@@ -82,7 +91,9 @@ from brake_env.prognostics.registry import make_predictor
 from twin import DigitalTwin
 
 CLEAR = (ValueError, TypeError, RuntimeError, FileNotFoundError)
-OUTCOMES = ("clear error", "warning", "correct", "other exception", "silent wrong answer")
+OUTCOMES = (
+    "clear error", "warning", "correct", "other exception", "silent wrong answer", "data loss",
+)  # fmt: skip
 FAST = {"k_mean": 1e-5, "k_std": 1e-6, "decision_interval": 500, "episode_events": 100_000}
 # The small fleet, with short shifts and episodes so a rollout takes milliseconds.
 FLEET = {**SMALL_FLEET, "events_per_shift": 100, "episode_shifts": 6}
@@ -108,6 +119,9 @@ class Case:
     run: Callable[[], Any]
     check: Check | None = None  # the answer of a "warning" or "correct" case
     names: tuple[str, ...] = ()  # regexes an "error" case's message must match
+    # After the run, whatever the outcome: the files it must have left as they were that
+    # are gone or changed (any: a "data loss").
+    lost: Callable[[], list[str]] | None = None
 
 
 @dataclass(frozen=True)
@@ -186,7 +200,16 @@ def equals(ref: Any, kind: str, rtol: float = 0.0) -> Check:
 
 
 def outcome(case: Case) -> tuple[str, str, Any]:
-    """(outcome, detail, answer) of running ``case`` (answer None where it raised)."""
+    """(outcome, detail, answer) of running ``case`` (answer None where it raised); a
+    "data loss" whatever else happened when a file it must keep is gone or changed."""
+    res, detail, answer = _outcome(case)
+    gone = case.lost() if case.lost is not None else []
+    if gone:
+        return "data loss", f"lost or changed: {', '.join(gone)[:200]} ({res})", answer
+    return res, detail, answer
+
+
+def _outcome(case: Case) -> tuple[str, str, Any]:
     with warnings.catch_warnings(record=True) as seen:
         warnings.simplefilter("always", PlausibilityWarning)
         err = io.StringIO()
@@ -1279,9 +1302,11 @@ def store_cases(w: World) -> list[Case]:
         b[len(b) // 2] ^= 0xFF
         f.write_bytes(bytes(b))
 
-    def rename(d: Path) -> None:
-        f = json_of(d)
-        f.rename(f.with_name("pads-0002-0123456789.json"))
+    renamed: dict[Path, bytes] = {}
+
+    def rename(d: Path) -> None:  # no unit's name: the store leaves it alone (issue 44)
+        f = json_of(d).rename(d / "pads-0002-0123456789.json")
+        renamed[f] = f.read_bytes()
 
     def other_settings(d: Path) -> Callable[[], Any]:
         return lambda: units.open_store(d, {**settings, "seed": 1}, keys, "probe")
@@ -1359,10 +1384,11 @@ def store_cases(w: World) -> list[Case]:
         ),
         Case(
             "unit store",
-            "unit file under another key: set aside",
+            "unit file renamed: not a unit, left alone",
             "correct",
             reopen(filled(), rename),
-            Check("the renamed unit set aside", lambda got: got == [keys[1]]),
+            Check("the renamed file not taken for a unit", lambda got: got == [keys[1]]),
+            lost=unchanged(renamed),
         ),
         Case(
             "unit store",
@@ -1377,10 +1403,259 @@ def store_cases(w: World) -> list[Case]:
     ]
 
 
+# ------------------------------------------------- set aside, output marks, hostile ids
+def unchanged(files: dict[Path, bytes]) -> Callable[[], list[str]]:
+    """``Case.lost`` of ``files`` (filled in by the case's run): those gone or changed."""
+    return lambda: [p.name for p, b in files.items() if not p.is_file() or p.read_bytes() != b]
+
+
+def keep(files: dict[Path, bytes], path: Path, data: bytes) -> Path:
+    """Write ``data`` to ``path``, noted as a file the case must leave as it is."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_bytes(data)
+    files[path] = data
+    return path
+
+
+Run = tuple[Callable[[], Any], dict[Path, bytes]]  # a case's run and the files it must keep
+
+
+def set_aside_cases(w: World) -> list[Case]:
+    """A unit store after a killed run: a user's file named like a unit is never moved or
+    deleted; damaged units are set aside under numbers, never overwritten or deleted."""
+    keys, settings = ["pads-0000", "pads-0001", "pads-0002"], {"seed": 0, "what": "aside"}
+    result = {"life": np.arange(5)}
+    n = iter(range(1000))
+
+    def killed_store() -> Path:  # two of three units done, then the run was stopped
+        d = w.tmp / f"aside-{next(n)}" / "units"
+        with units.open_store(d, settings, keys, "probe") as st:
+            st.save(keys[0], result)
+            st.save(keys[1], result)
+        return d
+
+    def user_file(discard: bool) -> Run:
+        files: dict[Path, bytes] = {}
+
+        def run() -> Any:
+            d = killed_store()
+            keep(files, d / "report-2026112801.json", b'{"mine": true}\n')
+            with units.open_store(d, settings, keys, "probe") as st:
+                got = st.keys()
+                if discard:
+                    st.save(keys[2], result)
+                    st.discard()
+            return sorted(p.name for p in d.iterdir()) if discard else got
+
+        return run, files
+
+    def damaged(times: int, discard: bool = False) -> Run:
+        files: dict[Path, bytes] = {}
+
+        def run() -> Any:
+            d = killed_store()
+            for i in range(times):
+                f = sorted(d.glob("pads-0000-*.json"))[0]
+                f.write_bytes(f.read_bytes()[: 20 + i])
+                files[d / "damaged" / f"{f.stem}.{i + 1}.json"] = f.read_bytes()
+                with units.open_store(d, settings, keys, "probe") as st:
+                    st.save(keys[0], result)
+                    if discard:
+                        st.discard()
+            return sorted(p.name for p in (d / "damaged").iterdir())
+
+        return run, files
+
+    def damaged_is_a_file() -> Run:
+        files: dict[Path, bytes] = {}
+
+        def run() -> Any:
+            d = killed_store()
+            f = sorted(d.glob("pads-0001-*.json"))[0]
+            f.write_bytes(f.read_bytes()[:30])
+            keep(files, d / "damaged", b"my notes")
+            return units.open_store(d, settings, keys, "probe")
+
+        return run, files
+
+    stem = units.UnitStore(w.tmp / "aside-names", {})._stem(keys[0]).name
+    pairs = [f"{stem}.{i}{s}" for i in (1, 2) for s in (".json", ".npz")]
+    table_: list[tuple[str, str, Run, Check | None, tuple[str, ...]]] = [
+        ("a user's file named like a unit: reopened", "correct", user_file(False),
+         Check("the two saved units", lambda got: got == keys[:2]), ()),
+        ("a user's file named like a unit: reopened, discarded", "correct", user_file(True),
+         Check("only the user's file left", lambda got: got == ["report-2026112801.json"]), ()),
+        ("a unit damaged twice: two numbered copies", "correct", damaged(2),
+         Check("both copies and their arrays", lambda got: got == pairs), ()),
+        ("damaged/ outlives the store's discard", "correct", damaged(1, discard=True),
+         Check("the copy and its arrays", lambda got: got == pairs[:2]), ()),
+        ("a file named damaged", "error", damaged_is_a_file(), None, ("damaged is a file",)),
+    ]  # fmt: skip
+    return [
+        Case("set aside", name, expect, run, check, names, unchanged(files))
+        for name, expect, (run, files), check, names in table_
+    ]
+
+
+HOLD = (
+    "import os, sys, time; from brake_env.run_lock import hold_output;"
+    " held = hold_output(sys.argv[1], 'fleet-study', ['fleet-study']); held.__enter__();"
+    " print('held', flush=True); time.sleep(60) if sys.argv[2] == 'run' else os._exit(0)"
+)
+
+
+def held(d: Path, how: str) -> subprocess.Popen[str]:
+    """A process that marks ``d`` as a fleet study's, then keeps running (``how`` "run")
+    or dies without a word ("kill": what a SIGKILL leaves)."""
+    proc = subprocess.Popen([sys.executable, "-c", HOLD, str(d), how], stdout=subprocess.PIPE,
+                            text=True)  # fmt: skip
+    assert proc.stdout is not None and proc.stdout.readline().strip() == "held"
+    if how == "kill":
+        proc.wait()
+    return proc
+
+
+BAD_MARKS = {
+    "garbage": b"{bad",
+    "empty": b"",
+    "binary": b"\x00\xff\xfe\x80",
+    "a JSON list": b'["fleet-study"]',
+    "a non-string command": b'{"format": 1, "command": 5}',
+    "of another format": b'{"format": 2, "command": "fleet-study"}',
+}
+
+
+def mark_cases(w: World) -> list[Case]:
+    """``--out`` marks: written when a command starts, so a running or killed fleet study's
+    folder is refused to other commands and resumed by its own; a live one refused naming
+    its process; an unreadable mark refused naming it; the folder's files kept."""
+    atlas = ["--atlas", str(w.atlas_file)]
+    n = iter(range(1000))
+
+    def fit(d: Path) -> Callable[[], Ran]:
+        return cli("fit", "--data", str(w.tmp / "train.csv"), "--predictor", "none", "--out",
+                   str(d), *atlas)  # fmt: skip
+
+    def study(d: Path) -> Callable[[], Ran]:
+        return cli("fleet-study", *TINY_STUDY, "--out", str(d), *atlas, read=lambda: costs_of(d))
+
+    def into(how: str, command: Callable[[Path], Callable[[], Ran]], resumes: bool = False) -> Run:
+        """``command`` on a fleet study's folder; the study's mark must stay unless the
+        study itself ``resumes`` (it marks the folder again, as its own process)."""
+        files: dict[Path, bytes] = {}
+
+        def run() -> Ran:
+            d = w.tmp / f"mark-{next(n)}"
+            proc = held(d, how)
+            try:
+                if not resumes:
+                    files[d / OUTPUT_MARK] = (d / OUTPUT_MARK).read_bytes()
+                keep(files, d / "notes" / "notes.txt", b"the study's own")
+                return command(d)()
+            finally:
+                proc.kill()
+                proc.wait()
+
+        return run, files
+
+    def bad_mark(data: bytes | None) -> Run:
+        files: dict[Path, bytes] = {}
+
+        def run() -> Ran:
+            d = w.tmp / f"mark-{next(n)}"
+            keep(files, d / "costs.json", b'{"theirs": 1}\n')
+            if data is None:
+                keep(files, d / OUTPUT_MARK / "x", b"a folder")
+            else:
+                keep(files, d / OUTPUT_MARK, data)
+            return fit(d)()
+
+        return run, files
+
+    study_ok = ran_check("costs.json = the library's run_fleet_study",
+                         lambda got: same(got, costs_of(w.tmp / "fleet-lib")))  # fmt: skip
+    other = ("holds the output of `brakewear fleet-study`",)
+    unreadable = ("is not a mark brakewear writes", re.escape(OUTPUT_MARK))
+    table_: list[tuple[str, str, Run, Check | None, tuple[str, ...]]] = [
+        ("fit --out on a killed fleet study's folder", "error", into("kill", fit), None, other),
+        ("fit --out on a running fleet study's folder", "error", into("run", fit), None, other),
+        ("fleet-study --out on a running one's folder", "error", into("run", study), None,
+         (r"in use by another run \(fleet-study, pid \d+",)),
+        ("fleet-study resumes its killed folder", "correct", into("kill", study, True), study_ok,
+         ()),
+        *((f"fit --out with a mark {what}", "error", bad_mark(data), None, unreadable)
+          for what, data in BAD_MARKS.items()),
+        ("fit --out with a mark that is a folder", "error", bad_mark(None), None, unreadable),
+    ]  # fmt: skip
+    return [
+        Case("output marks", name, expect, run, check, names, unchanged(files))
+        for name, expect, (run, files), check, names in table_
+    ]
+
+
+HOSTILE_IDS = ("=cmd|' /C calc'!A0", '+HYPERLINK("http://x.example","y")', "@SUM(A1:A9)",
+               "-2+3", "\t=1+1", "\r=1+1")  # fmt: skip
+HOSTILE_LABELS = ("$x$", r"$\x$", "$^$", "pad $5", "_hidden", "a\\$b$")
+
+
+def drawn(label: str) -> list[str]:
+    """``label`` as a title, tick label and legend entry drawn on the Agg canvas: the texts
+    as shown (``<math>`` where matplotlib parses mathtext), zero-width spaces removed."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    fig = Figure()
+    ax = fig.subplots()
+    ax.plot([0, 1], [0, 1], label=label)
+    ax.set_yticks([0.5], [label])
+    ax.set_title(label)
+    texts = [ax.title, ax.get_yticklabels()[0], *ax.legend().get_texts()]
+    FigureCanvasAgg(fig).draw()
+    # how matplotlib reads each text: (the text, whether it is mathtext); private, but
+    # it is the only place that decides
+    shown = [t._preprocess_math(t.get_text()) for t in texts]  # type: ignore[attr-defined]
+    return ["<math>" if math else text.replace("\u200b", "") for text, math in shown]
+
+
+def hostile_id_cases(w: World) -> list[Case]:
+    """Pad ids a spreadsheet would run as formulas, written by :func:`write_csv` (each cell
+    read back: a leading quote, the number beside it still a number); ids with a carriage
+    return (the row kept); ids matplotlib would parse as mathtext (:func:`plain_text`)."""
+
+    def cell(run_id: str) -> Callable[[], Any]:
+        def run() -> tuple[str, str]:
+            frame = pd.DataFrame({"run_id": [run_id], "rul_mean": [-1.5]})
+            with open(write_csv(frame, w.tmp / "hostile.csv"), newline="") as f:
+                row = next(csv.DictReader(f))
+            return row["run_id"], row["rul_mean"]
+
+        return run
+
+    def rows() -> Any:
+        frame = pd.DataFrame({"run_id": ["a\rb", "c\nd", "e"], "rul_mean": [1.0, -2.0, 3.0]})
+        back = pd.read_csv(write_csv(frame, w.tmp / "rows.csv"))
+        return back["run_id"].tolist(), back["rul_mean"].to_numpy()
+
+    return [
+        *(Case("hostile ids", f"CSV cell {i!r}", "correct", cell(i),
+               equals(("'" + i, "-1.5"), "a leading quote; -1.5 a number")) for i in HOSTILE_IDS),
+        Case("hostile ids", "CSV cell 'A-1'", "correct", cell("A-1"), equals(("A-1", "-1.5"), "")),
+        Case("hostile ids", "CSV: a carriage return in a pad id", "correct", rows,
+             equals((["a\rb", "c\nd", "e"], np.array([1.0, -2.0, 3.0])), "rows kept")),
+        *(Case("hostile ids", f"figure label {lab!r}", "correct",
+               functools.partial(lambda s: drawn(plain_text(s)), lab),
+               equals([lab] * 3, "drawn as given")) for lab in HOSTILE_LABELS),
+    ]  # fmt: skip
+
+
+def trust_cases(w: World) -> list[Case]:
+    return set_aside_cases(w) + mark_cases(w) + hostile_id_cases(w)
+
+
 def all_cases(w: World) -> list[Case]:
     return (
         log_cases(w) + gap_cases(w) + model_cases(w) + env_cases(w) + fleet_cases(w)
-        + cli_cases(w) + store_cases(w)
+        + cli_cases(w) + store_cases(w) + trust_cases(w)
     )  # fmt: skip
 
 
@@ -1416,7 +1691,7 @@ def main() -> int:
         " (each rejected a deliberately wrong answer)"
     )
     print(f"{len(results)} cases (seed {args.seed}), {time.perf_counter() - t0:.0f} s")
-    return 1 if total["other exception"] or total["silent wrong answer"] else 0
+    return 1 if any(total[o] for o in OUTCOMES[3:]) else 0
 
 
 if __name__ == "__main__":

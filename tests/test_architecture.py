@@ -80,7 +80,7 @@ def test_functions_and_modules_stay_short() -> None:
 # shared helpers). A stage's own command modules (commands/, cli.py, *_cli.py) may also use
 # brake_env.cli.
 PIPELINE = ("model", "data", "prognostics", "env", "cli")
-HELPERS = {"_validate", "output", "runner", "saved", "units"}
+HELPERS = {"_validate", "csv_safe", "output", "run_lock", "runner", "saved", "units"}
 
 
 def test_brake_env_stages_import_only_earlier_stages() -> None:

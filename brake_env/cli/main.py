@@ -3,18 +3,18 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import importlib
 import sys
 import warnings
 from collections.abc import Callable, Sequence
-from pathlib import Path
 from typing import Any
 
 from brake_env.cli import demo, simulate
 from brake_env.cli.common import Parser, plugins
 from brake_env.data.plausibility import PlausibilityWarning
-from brake_env.output import check_output, mark_output
 from brake_env.prognostics.commands import backtest, evaluate, fit_predict
+from brake_env.run_lock import hold_output
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -55,30 +55,20 @@ _PYTHON_FORMAT = warnings.formatwarning
 
 def main(argv: Sequence[str] | None = None) -> int:
     warnings.formatwarning = _format_warning
+    argv = list(sys.argv[1:] if argv is None else argv)
     args = build_parser().parse_args(argv)
     run = command(args.func)
     out = getattr(args, "out", None)
+    # --out is refused before any work when another command (or a running one) holds it,
+    # else marked as this command's for as long as it runs, and after (brake_env.run_lock)
+    held = hold_output(out, args.command, argv) if out is not None else contextlib.nullcontext()
     try:
-        if out is not None:  # a folder another command wrote is refused before any work
-            check_output(out, args.command)
-        before = _entries(out)
-        done = False
-        try:
+        with held:
             run(args)
-            done = True
-        finally:  # interrupted too, once it wrote: the folder then holds its units
-            if out is not None and (done or _entries(out) != before):
-                mark_output(out, args.command)
     except (ValueError, FileNotFoundError) as e:
         print(f"brakewear {args.command}: error: {e}", file=sys.stderr)
         return 2
     return 0
-
-
-def _entries(out: str | None) -> set[str] | None:
-    """The names in ``out`` (None: no such directory)."""
-    path = Path(out) if out is not None else None
-    return {p.name for p in path.iterdir()} if path is not None and path.is_dir() else None
 
 
 if __name__ == "__main__":

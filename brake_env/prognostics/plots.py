@@ -13,6 +13,7 @@ import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
+from brake_env.csv_safe import plain_text
 from brake_env.output import atomic_path
 from brake_env.prognostics.evaluation import Evaluation
 
@@ -72,7 +73,7 @@ def _single_run(
         ax.set(
             xlabel="braking event since installation",
             ylabel=ylabel,
-            title=f"{split.upper()} sample {run}",
+            title=f"{split.upper()} sample {plain_text(run)}",
         )
         ax.legend(fontsize=8)
     fig.suptitle(title)

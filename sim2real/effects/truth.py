@@ -32,6 +32,7 @@ from brake_env.model.simulator import F64, Trajectory, simulate_runs
 from brake_env.model.wear import WearModel
 from sim2real.effects.carry_over import carry_over_runs
 from sim2real.effects.interface import Effect, SensorContext, apply_sensor, split_kinds
+from sim2real.effects.library import register, registry
 
 _ATLAS_CACHE: dict[str, Atlas] = {}
 _CACHE_MAX = 32
@@ -62,6 +63,9 @@ def truth_atlas(spec: AtlasSpec, effects: Sequence[Effect]) -> Atlas:
     inevent = [e for e in effects if e.kind == "in-event" and not e.is_neutral]
     if not inevent:
         return cached_atlas(spec)
+    for e in inevent:  # the atlas resolves its effects by name: a user's own class too
+        if registry().get(e.name) is not type(e):
+            register(type(e))
     with_effects = dataclasses.replace(spec, effects=tuple(e.key for e in inevent))
     key = with_effects.content_hash()
     if key not in _ATLAS_CACHE:

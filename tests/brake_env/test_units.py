@@ -45,7 +45,7 @@ def test_a_cut_unit_file_is_named_set_aside_and_redone(tmp_path, capsys):
         assert f"test: unit seed=1: {cut} is damaged (not whole JSON" in err
         assert "will redo the unit" in err
         assert "test: resuming: 2 of 3 units already done" in err
-        assert "seed=1" not in store and (tmp_path / "damaged" / cut.name).is_file()
+        assert "seed=1" not in store and (tmp_path / "damaged" / f"{cut.stem}.1.json").is_file()
         ran: list[str] = []
         again = Runner(0).run(units(), store, lambda k, _: ran.append(k))
     assert sorted(ran) == KEYS  # each reported; only seed=1 was computed again
@@ -221,12 +221,115 @@ def test_files_put_in_a_store_are_not_units_and_survive_its_discard(tmp_path, ca
     assert "files this run did not write (notes.json)" in capsys.readouterr().err
 
 
-def test_discard_removes_the_folder_when_only_its_files_are_there(tmp_path, capsys):
-    with open_store(tmp_path / "units", {"seed": 0}, KEYS, "test") as store:
-        Runner(0).run(units(), store)
-        cut = unit_file(store, "seed=0")
-    cut.write_bytes(cut.read_bytes()[:20])
+def test_discard_removes_the_folder_when_only_its_files_are_there(tmp_path):
     with open_store(tmp_path / "units", {"seed": 0}, KEYS, "test") as store:
         Runner(0).run(units(), store)
         store.discard()
     assert not (tmp_path / "units").exists()
+
+
+def test_discard_keeps_what_was_set_aside(tmp_path, capsys):
+    with open_store(tmp_path / "units", {"seed": 0}, KEYS, "test") as store:
+        Runner(0).run(units(), store)
+        cut = unit_file(store, "seed=0")
+    cut.write_bytes(cut.read_bytes()[:20])
+    damaged = cut.read_bytes()
+    with open_store(tmp_path / "units", {"seed": 0}, KEYS, "test") as store:
+        Runner(0).run(units(), store)
+        store.discard()
+    assert [p.name for p in (tmp_path / "units").iterdir()] == ["damaged"]
+    assert (tmp_path / "units" / "damaged" / f"{cut.stem}.1.json").read_bytes() == damaged
+    err = capsys.readouterr().err
+    assert "(1 damaged unit files set aside" in err and "did not write" not in err
+
+
+# ---------------------------------------------------------------------- nothing lost (issue 44)
+def test_a_users_file_named_like_a_unit_is_never_moved_or_deleted(tmp_path, capsys):
+    """A killed run's store, then a file of the user's named like a unit: left in place by
+    the reopened store and by its discard (it was taken for a damaged unit, moved to
+    damaged/ and deleted with the store's files)."""
+    store_dir = tmp_path / "units"
+    with open_store(store_dir, {"seed": 0}, KEYS, "test") as store:
+        Runner(0).run(units()[:2], store)  # killed before the last unit
+    report = store_dir / "report-2026112801.json"  # ten hex digits, like a unit's name
+    report.write_text("my notes\n")
+    with open_store(store_dir, {"seed": 0}, KEYS, "test") as store:
+        assert "damaged" not in capsys.readouterr().err
+        assert report.read_text() == "my notes\n" and not (store_dir / "damaged").exists()
+        assert store.keys() == KEYS[:2]
+        Runner(0).run(units(), store)
+        store.discard()
+    assert report.read_text() == "my notes\n"
+    assert [p.name for p in store_dir.iterdir()] == [report.name]
+    assert f"files this run did not write ({report.name})" in capsys.readouterr().err
+
+
+def test_a_users_unit_shaped_json_is_not_taken_for_a_unit(tmp_path, capsys):
+    store_dir = tmp_path / "units"
+    with open_store(store_dir, {"seed": 0}, KEYS, "test") as store:
+        Runner(0).run(units(), store)
+    mine = store_dir / "mine-0123456789.json"
+    mine.write_text('{"key": "seed=0", "result": 1}')  # a key, but not under its own name
+    with open_store(store_dir, {"seed": 0}, KEYS, "test") as store:
+        assert "damaged" not in capsys.readouterr().err
+        assert store.keys() == KEYS and mine.is_file()
+        store.discard()
+    assert [p.name for p in store_dir.iterdir()] == [mine.name]
+
+
+def damage(store: UnitStore, key: str) -> bytes:
+    """Cut ``key``'s unit file; its bytes after the cut."""
+    path = unit_file(store, key)
+    path.write_bytes(path.read_bytes()[: 30 + len(store.directory.name)])
+    return path.read_bytes()
+
+
+def test_set_aside_copies_are_numbered_and_outlive_the_stores_discard(tmp_path, capsys):
+    store_dir = tmp_path / "units"
+    with open_store(store_dir, {"seed": 0}, KEYS, "test") as store:
+        Runner(0).run(units(), store)
+        first = damage(store, "seed=1")
+    with open_store(store_dir, {"seed": 0}, KEYS, "test") as store:
+        Runner(0).run(units(), store)
+        second = damage(store, "seed=1") + b"again"
+        unit_file(store, "seed=1").write_bytes(second)
+    with open_store(store_dir, {"seed": 0}, KEYS, "test") as store:
+        Runner(0).run(units(), store)
+        store.discard()
+    stem = unit_file(store, "seed=1").stem
+    aside = store_dir / "damaged"
+    assert sorted(p.name for p in aside.iterdir()) == [
+        f"{stem}.{n}{s}" for n in (1, 2) for s in (".json", ".npz")
+    ]
+    assert (aside / f"{stem}.1.json").read_bytes() == first
+    assert (aside / f"{stem}.2.json").read_bytes() == second
+    assert sorted(p.name for p in store_dir.iterdir()) == ["damaged"]
+    err = capsys.readouterr().err
+    assert f"moved it to {aside / stem}.2.json and will redo the unit" in err
+    assert f"kept {aside}/ (2 damaged unit files set aside" in err
+    # a later run into the same folder is not refused for the damaged/ kept there
+    with open_store(store_dir, {"seed": 0}, KEYS, "test") as store:
+        assert store.keys() == []
+
+
+def test_a_damaged_unit_with_its_arrays_is_set_aside_as_one_numbered_pair(tmp_path):
+    with open_store(tmp_path, {}, KEYS, "test") as store:
+        Runner(0).run(units(), store)
+        npz = unit_file(store, "seed=0", ".npz")
+    (tmp_path / "damaged").mkdir()
+    (tmp_path / "damaged" / f"{npz.stem}.1.npz").write_bytes(b"an earlier copy")
+    npz.write_bytes(npz.read_bytes()[:-3] + b"xyz")
+    UnitStore(tmp_path, {}, keys=KEYS).close()
+    got = sorted(p.name for p in (tmp_path / "damaged").iterdir())
+    assert got == [f"{npz.stem}.1.npz", f"{npz.stem}.2.json", f"{npz.stem}.2.npz"]
+    assert (tmp_path / "damaged" / f"{npz.stem}.1.npz").read_bytes() == b"an earlier copy"
+
+
+def test_a_file_where_the_set_aside_folder_goes_is_refused_naming_it(tmp_path):
+    with open_store(tmp_path, {}, KEYS, "test") as store:
+        Runner(0).run(units(), store)
+        damage(store, "seed=0")
+    (tmp_path / "damaged").write_text("mine")
+    with pytest.raises(ValueError, match=f"{tmp_path / 'damaged'} is a file"):
+        UnitStore(tmp_path, {}, keys=KEYS)
+    assert (tmp_path / "damaged").read_text() == "mine"

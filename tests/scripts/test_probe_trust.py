@@ -4,6 +4,7 @@ run returns that wrong answer comes out a "silent wrong answer"."""
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -90,3 +91,48 @@ def test_cli_check_can_fail(world: pt.World, tmp_path: Path) -> None:
         "fit", "CLI none", "correct", run, pt.ran_check("= library", lambda g: g == life)
     )
     _each_check_fails([case])
+
+
+def test_set_aside_and_hostile_id_checks_can_fail(world: pt.World) -> None:
+    _each_check_fails(_pick(
+        pt.set_aside_cases(world),
+        "a user's file named like a unit: reopened, discarded",
+        "a unit damaged twice: two numbered copies",
+    ))  # fmt: skip
+    _each_check_fails(_pick(
+        pt.hostile_id_cases(world),
+        "CSV cell \"=cmd|' /C calc'!A0\"", "CSV cell '-2+3'",
+        "CSV: a carriage return in a pad id", "figure label '$\\\\x$'",
+    ))  # fmt: skip
+
+
+def test_mark_cases_are_clear_errors_keeping_the_files(world: pt.World) -> None:
+    cases = _pick(
+        pt.mark_cases(world),
+        "fit --out on a killed fleet study's folder",
+        "fleet-study --out on a running one's folder",
+        "fit --out with a mark garbage",
+        "fit --out with a mark a non-string command",
+    )
+    for case in cases:
+        assert pt.outcome(case)[0] == "clear error", case.name
+
+
+def test_a_lost_file_is_a_data_loss_whatever_the_answer(tmp_path: Path) -> None:
+    files: dict[Path, bytes] = {}
+    mine = pt.keep(files, tmp_path / "units" / "report-2026112801.json", b"mine")
+
+    def deletes() -> int:
+        mine.unlink()
+        return 1
+
+    ok = pt.Check("one", lambda got: got == 1)
+    case = pt.Case("set aside", "deletes", "correct", deletes, ok, lost=pt.unchanged(files))
+    assert pt.outcome(case)[0] == "data loss"
+    files[mine] = b"mine"
+    mine.write_bytes(b"changed")
+    refused = pt.Case("set aside", "e", "error", lambda: (_ for _ in ()).throw(ValueError("x")),
+                      lost=pt.unchanged(files))  # fmt: skip
+    assert pt.outcome(refused)[0] == "data loss"
+    mine.write_bytes(b"mine")
+    assert pt.outcome(replace(refused))[0] == "clear error"

@@ -31,6 +31,7 @@ from brake_env.cli.common import (
     load_atlas,
     predictor_list,
 )
+from brake_env.csv_safe import write_csv
 from brake_env.data.plausibility import warn_implausible
 from brake_env.data.schema import read_event_log
 from brake_env.model.atlas import Atlas, cached_atlas
@@ -226,8 +227,7 @@ def _write_outputs(res: BacktestResult, out: Path) -> None:
         "pads": res.pads.to_dict("records"),
     }
     write_json(doc, out / "backtest.json")  # standard JSON: a missing value is null
-    with atomic_path(out / "backtest.csv") as tmp:
-        res.pads.to_csv(tmp, index=False)
+    write_csv(res.pads, out / "backtest.csv")  # spreadsheet-safe pad ids
     with atomic_path(out / "backtest.png") as tmp:
         plot_backtest(res).savefig(tmp, dpi=100)
 

@@ -43,6 +43,7 @@ from brake_env.cli.common import (
     make_runner,
     out_dir,
 )
+from brake_env.csv_safe import write_csv
 from brake_env.data.datasets import find_logs
 from brake_env.data.plausibility import warn_fitted, warn_implausible
 from brake_env.data.runs import run_ends
@@ -351,8 +352,7 @@ def _write_outputs(
     warnings: list[str],
 ) -> None:
     header, checks = model
-    with atomic_path(out / "fleet.csv") as tmp:
-        fleet.to_csv(tmp, index=False)
+    write_csv(fleet, out / "fleet.csv")  # spreadsheet-safe: a pad id is never a formula
     doc = {
         "model": str(args.model),
         "predictor": pred.name,

@@ -8,6 +8,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 import pandas as pd
 
+from brake_env.csv_safe import plain_text
+
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
@@ -30,15 +32,19 @@ def plot_fleet(fleet: pd.DataFrame, traces: pd.DataFrame, name: str, log_name: s
         err = np.vstack([rul - fleet["rul_lower"], fleet["rul_upper"] - rul]).clip(0)
         bars.errorbar(rul, y, xerr=err, fmt="none", ecolor="k", capsize=2, lw=0.8)
     pairs = zip(fleet["run_id"], fleet["missing_channels"], strict=True)
-    labels = [r + (f" (no {m})" if m else "") for r, m in pairs]
+    labels = [plain_text(r) + (f" (no {m})" if m else "") for r, m in pairs]
     bars.set_yticks(y, labels, fontsize=8)
     note = " (red: a channel missing for the whole pad)" if flagged.any() else ""
     bars.set_xlabel("RUL now [braking events]" + note)
-    bars.set_title(f"{name}: {n} pads of {log_name}, most urgent on top")
+    bars.set_title(f"{name}: {n} pads of {plain_text(log_name)}, most urgent on top")
     for run_id in fleet["run_id"][:TRACE_PADS]:
         t = traces[traces["run_id"] == run_id]
         step = max(1, len(t) // 2000)
-        lines.plot(t["event"].to_numpy()[::step], t["rul_mean"].to_numpy()[::step], label=run_id)
+        lines.plot(
+            t["event"].to_numpy()[::step],
+            t["rul_mean"].to_numpy()[::step],
+            label=plain_text(run_id),
+        )
     lines.set_xlabel("events since installation")
     lines.set_ylabel("RUL [braking events]")
     lines.set_title(f"RUL along the log ({min(n, TRACE_PADS)} most urgent pads)")
