@@ -6,7 +6,8 @@ parameter is chosen on calibration runs (a grid plus a parabola); its held-out
 log-likelihood gain over the nominal model, a paired z against the nominal model and the
 runner-up, and the BIC decide. A candidate is named only if it clearly wins *and* closes
 the structured gap on held-out runs; otherwise the answer is "none of the candidates" with
-what remains.
+what remains. The winner's parameter is then refined, with an interval
+(:mod:`sim2real.diagnosis.refine`), from the per-run calibration log-likelihoods kept here.
 """
 
 from __future__ import annotations
@@ -50,25 +51,44 @@ class RunSplit:
 @dataclass(frozen=True, eq=False)
 class Nominal:
     """The nominal model fitted to the log: replay, each run's K, calibration log-likelihood
-    and held-out residuals."""
+    (per calibration run, in the order of ``RunSplit.cal_runs``) and held-out residuals."""
 
     model: ReplayModel
     k: F64
-    cal_ll: float
+    cal_ll_runs: F64
     held: Residuals
+
+    @property
+    def cal_ll(self) -> float:
+        return float(self.cal_ll_runs.sum())
 
 
 @dataclass
 class Scored:
-    """A candidate at its fitted value: replay model, each run's K, calibration score."""
+    """A candidate at its fitted value: replay model, each run's K, calibration score.
+
+    Attributes:
+        cal_ll_runs: Calibration log-likelihood per calibration run (``RunSplit.cal_runs``).
+        curve: Every parameter value tried, with its ``cal_ll_runs``.
+        held: Held-out residuals (:meth:`Calibration.score_held`).
+    """
 
     name: str
     effect: Effect | None
     model: ReplayModel
     k: F64
-    cal_ll: float
-    grid: list[dict[str, float]] = field(default_factory=list)
+    cal_ll_runs: F64
+    curve: dict[float, F64] = field(default_factory=dict)
     held: Residuals | None = None
+
+    @property
+    def cal_ll(self) -> float:
+        return float(self.cal_ll_runs.sum())
+
+    @property
+    def grid(self) -> list[dict[str, float]]:
+        """The values tried and their calibration log-likelihood, by value."""
+        return [{"value": v, "cal_loglik": float(ll.sum())} for v, ll in sorted(self.curve.items())]
 
 
 @dataclass(frozen=True)
@@ -78,6 +98,46 @@ class Verdict:
     answer: str
     reason: str
     winner: Effect | None
+
+
+def cal_loglik_runs(rm: ReplayModel, split: RunSplit, k: F64, nodes: int) -> F64:
+    """Calibration log-likelihood of a replay, summed per calibration run."""
+    res = residuals(rm, split.cal_rows, k, nodes)
+    per_run = np.bincount(rm.data.run[res.rows], weights=res.loglik, minlength=rm.data.n_runs)
+    return np.asarray(per_run[split.cal_runs], dtype=np.float64)
+
+
+@dataclass(frozen=True, eq=False)
+class Calibration:
+    """What scores a candidate's parameter values: the nominal atlas, the log, the settings,
+    the run split and the nominal fit."""
+
+    atlas: Atlas
+    data: LogData
+    cfg: DiagnosisConfig
+    split: RunSplit
+    nominal: Nominal
+
+    def score(self, cls: type[Effect], v: float) -> Scored:
+        """The candidate with its first fitted parameter at ``v``, each calibration run's K
+        fitted, scored on the calibration runs."""
+        p = cls.fitted_params()[0]
+        nom = self.nominal
+        if v == p.neutral:
+            return Scored(cls.name, cls(), nom.model, nom.k, nom.cal_ll_runs, {v: nom.cal_ll_runs})
+        eff = cls(**{p.name: v})
+        rm = ReplayModel(self.atlas, self.data, eff, self.cfg.noise)
+        k = fit_k(rm, self.split.fit_rows, self.split.cal_runs)
+        ll = cal_loglik_runs(rm, self.split, k, self.cfg.slope_nodes)
+        return Scored(cls.name, eff, rm, k, ll, {v: ll})
+
+    def score_held(self, s: Scored) -> Scored:
+        """``s`` with the held-out runs' K fitted and its held-out residuals (in place)."""
+        sp = self.split
+        k_held = fit_k(s.model, sp.fit_rows, sp.held_runs)  # the held-out pad states
+        s.k = np.where(np.isnan(s.k), k_held, s.k)
+        s.held = residuals(s.model, sp.held_rows, s.k, self.cfg.slope_nodes)
+        return s
 
 
 def parameter_grid(neutral: float, lo: float, hi: float, n: int) -> list[float]:
@@ -90,39 +150,21 @@ def parameter_grid(neutral: float, lo: float, hi: float, n: int) -> list[float]:
     return sorted(vals)
 
 
-def fit_candidate(
-    cls: type[Effect],
-    atlas: Atlas,
-    d: LogData,
-    cfg: DiagnosisConfig,
-    split: RunSplit,
-    nominal: Nominal,
-    *,
-    progress: Progress = None,
-) -> Scored:
-    """Grid (and a parabola) over the candidate's first fitted parameter, on calibration runs."""
+def fit_candidate(cls: type[Effect], ctx: Calibration, *, progress: Progress = None) -> Scored:
+    """Grid (and a parabola) over the candidate's first fitted parameter, on calibration
+    runs; the result's ``curve`` holds every value tried."""
     params = cls.fitted_params()
     if not params:
         raise ValueError(f"candidate {cls.name!r} has no fitted parameter")
     p = params[0]
-
-    def score(v: float) -> Scored:
-        if v == p.neutral:
-            return Scored(cls.name, cls(), nominal.model, nominal.k, nominal.cal_ll)
-        eff = cls(**{p.name: v})
-        rm = ReplayModel(atlas, d, eff, cfg.noise)
-        k = fit_k(rm, split.fit_rows, split.cal_runs)
-        ll = float(np.sum(residuals(rm, split.cal_rows, k, cfg.slope_nodes).loglik))
-        return Scored(cls.name, eff, rm, k, ll)
-
     scored = []
-    for v in parameter_grid(p.neutral, p.lo, p.hi, cfg.grid_points):
-        scored.append((v, score(v)))
+    for v in parameter_grid(p.neutral, p.lo, p.hi, ctx.cfg.grid_points):
+        scored.append((v, ctx.score(cls, v)))
         if progress:
             progress(f"{cls.name}:{p.name}={v:.3g}")
-    grid = [{"value": v, "cal_loglik": s.cal_ll} for v, s in scored]
-    best = _refine(scored, p.lo, p.hi, score, grid)
-    best.grid = sorted(grid, key=lambda g: g["value"])
+    curve = {v: s.cal_ll_runs for v, s in scored}
+    best = _refine(scored, p.lo, p.hi, lambda v: ctx.score(cls, v), curve)
+    best.curve = curve
     return best
 
 
@@ -131,10 +173,10 @@ def _refine(
     lo: float,
     hi: float,
     score: Callable[[float], Scored],
-    grid: list[dict[str, float]],
+    curve: dict[float, F64],
 ) -> Scored:
     """The best grid value, or the vertex of a parabola through it and its neighbours if
-    that scores better (the vertex is added to ``grid``)."""
+    that scores better (the vertex is added to ``curve``)."""
     lls = np.array([s.cal_ll for _, s in scored])
     i = int(np.argmax(lls))
     best = scored[i][1]
@@ -146,35 +188,24 @@ def _refine(
         v_ref = float(np.clip(-c[1] / (2 * c[0]), x[0], x[2]))
         if lo <= v_ref <= hi and v_ref not in x:
             s = score(v_ref)
-            grid.append({"value": v_ref, "cal_loglik": s.cal_ll})
+            curve[v_ref] = s.cal_ll_runs
             if s.cal_ll > best.cal_ll:
                 best = s
     return best
 
 
 def score_candidates(
-    cands: Sequence[type[Effect]],
-    atlas: Atlas,
-    d: LogData,
-    cfg: DiagnosisConfig,
-    split: RunSplit,
-    nominal: Nominal,
-    *,
-    progress: Progress = None,
+    cands: Sequence[type[Effect]], ctx: Calibration, *, progress: Progress = None
 ) -> tuple[list[Scored], dict[str, str]]:
     """Every candidate fitted on the calibration runs with its held-out residuals, and the
     candidates skipped (with the reason)."""
     scored: list[Scored] = []
     skipped = {}
     for cls in cands:
-        if cls.kind == "between-events" and d.time_s is None:
+        if cls.kind == "between-events" and ctx.data.time_s is None:
             skipped[cls.name] = "needs event times (time_s), which the log does not have"
             continue
-        s = fit_candidate(cls, atlas, d, cfg, split, nominal, progress=progress)
-        k_held = fit_k(s.model, split.fit_rows, split.held_runs)  # the held-out pad states
-        s.k = np.where(np.isnan(s.k), k_held, s.k)
-        s.held = residuals(s.model, split.held_rows, s.k, cfg.slope_nodes)
-        scored.append(s)
+        scored.append(ctx.score_held(fit_candidate(cls, ctx, progress=progress)))
     return scored, skipped
 
 

@@ -18,10 +18,13 @@ import pandas as pd
 
 from brake_env.model.atlas import Atlas
 from sim2real.diagnosis.attribute import (
+    Calibration,
     Nominal,
     Progress,
     RunSplit,
+    Scored,
     Verdict,
+    cal_loglik_runs,
     candidate_table,
     decide,
     score_candidates,
@@ -41,6 +44,7 @@ from sim2real.diagnosis.logdata import I64, LogData, prepare_log, sample_rows
 from sim2real.diagnosis.padfit import fit_k
 from sim2real.diagnosis.preconditions import check_log
 from sim2real.diagnosis.quantify import RulScorer, quantify, rul_error
+from sim2real.diagnosis.refine import ParameterFit, refine_winner
 from sim2real.diagnosis.replay import ReplayModel
 from sim2real.effects.interface import Effect
 from sim2real.effects.library import LIBRARY
@@ -81,14 +85,16 @@ def diagnose(
         atlas: The nominal model's atlas.
         candidates: Effect classes to try (default: the library).
         config: Settings.
-        seed: Seeds the run split, the event subsamples and the simulated readings.
+        seed: Seeds the run split, the event subsamples, the simulated readings and (an
+            independent stream) the bootstrap of the winner's parameter.
         progress: Called with a short text per fitted model.
         rul: Optional callback for the twin's RUL error without and with the winning
             effect (:data:`~.quantify.RulScorer`, e.g. :func:`~.rul.rul_scorer`).
     """
     cfg = config or DiagnosisConfig()
     check_log(log, cfg, with_rul=rul is not None)  # fail in seconds, not after the replay
-    rng = np.random.default_rng(seed)
+    seeds = np.random.SeedSequence(seed)
+    rng = np.random.default_rng(seeds)  # the same stream as default_rng(seed)
     d = prepare_log(log, atlas)
     split = _split_runs(d, cfg, rng)
     bins = factor_bins(d, atlas)
@@ -103,27 +109,73 @@ def diagnose(
     if progress:
         progress("nominal")
     # 2. attribute
-    cal_ll = float(np.sum(residuals(nominal_rm, split.cal_rows, k0, cfg.slope_nodes).loglik))
-    nominal = Nominal(
-        nominal_rm, k0, cal_ll, residuals(nominal_rm, split.held_rows, k0, cfg.slope_nodes)
-    )
-    gap0 = gap_summary(nominal.held, d, cells, split.held_runs, cfg.level)
+    cal0 = cal_loglik_runs(nominal_rm, split, k0, cfg.slope_nodes)
+    held0 = residuals(nominal_rm, split.held_rows, k0, cfg.slope_nodes)
+    nominal = Nominal(nominal_rm, k0, cal0, held0)
+    ctx = Calibration(atlas, d, cfg, split, nominal)
     cands = list(LIBRARY if candidates is None else candidates)
-    scored, skipped = score_candidates(cands, atlas, d, cfg, split, nominal, progress=progress)
-    rows, scored = candidate_table(scored, nominal, d, cells, split, cfg.level)
-    verdict = decide(rows, scored, gap0, cfg)
+    boot_rng = np.random.default_rng(seeds.spawn(1)[0])
+    att = _attribute(cands, ctx, cells, boot_rng, progress)
     # 3. quantify
-    best = scored[0] if verdict.winner is not None else None
-    q = quantify(d, cells, split, gap0, nominal, best, cfg=cfg, rng=rng)
+    best = att.scored[0] if att.verdict.winner is not None else None
+    q = quantify(d, cells, split, att.gap0, nominal, best, cfg=cfg, rng=rng)
     if rul is not None:
         q["rul"] = rul_error(rul, d, split, nominal, best)
-    attribution = _attribution(verdict, rows, skipped, nominal)
-    summary = {**_describe(d, split, cfg), "localise": local, "attribution": attribution}
+    summary = {**_describe(d, split, cfg), "localise": local, "attribution": att.summary(nominal)}
     summary["quantify"] = q
     after = None if best is None else best.held
     return DiagnosisResult(
-        summary, d, res0, nominal.held, after, bins, split.held_runs, verdict.winner
+        summary, d, res0, nominal.held, after, bins, split.held_runs, att.verdict.winner
     )
+
+
+@dataclass(frozen=True, eq=False)
+class _Attribution:
+    """The attribution step's outcome: candidate rows and fits (best first), the verdict,
+    the candidates skipped, the held-out gap of the nominal model and the winner's
+    parameter (None without a winner)."""
+
+    rows: list[dict[str, Any]]
+    scored: list[Scored]
+    verdict: Verdict
+    skipped: dict[str, str]
+    gap0: dict[str, dict[str, Any]]
+    parameter: ParameterFit | None
+
+    def summary(self, nominal: Nominal) -> dict[str, Any]:
+        v = self.verdict
+        return {
+            "verdict": v.answer,
+            "reason": v.reason,
+            "winner": v.winner.key if v.winner else None,
+            "parameter": self.parameter.summary() if self.parameter else None,
+            "candidates": self.rows,
+            "skipped": self.skipped,
+            "nominal_held_loglik_per_event": float(nominal.held.loglik.mean()),
+        }
+
+
+def _attribute(
+    cands: list[type[Effect]],
+    ctx: Calibration,
+    cells: Cells,
+    boot_rng: np.random.Generator,
+    progress: Progress,
+) -> _Attribution:
+    """Fit and score every candidate, decide; then refine the winner's parameter and decide
+    again with the refined winner (its held-out scores are those of the refined value)."""
+    d, split, cfg, nominal = ctx.data, ctx.split, ctx.cfg, ctx.nominal
+    gap0 = gap_summary(nominal.held, d, cells, split.held_runs, cfg.level)
+    scored, skipped = score_candidates(cands, ctx, progress=progress)
+    rows, scored = candidate_table(scored, nominal, d, cells, split, cfg.level)
+    verdict = decide(rows, scored, gap0, cfg)
+    if verdict.winner is None:
+        return _Attribution(rows, scored, verdict, skipped, gap0, None)
+    refined, fit = refine_winner(scored[0], ctx, boot_rng, progress=progress)
+    rows, scored = candidate_table([refined, *scored[1:]], nominal, d, cells, split, cfg.level)
+    verdict = decide(rows, scored, gap0, cfg)
+    named = verdict.winner is not None and scored[0] is refined  # (the refinement kept it)
+    return _Attribution(rows, scored, verdict, skipped, gap0, fit if named else None)
 
 
 def _split_runs(d: LogData, cfg: DiagnosisConfig, rng: np.random.Generator) -> RunSplit:
@@ -172,17 +224,4 @@ def _describe(d: LogData, split: RunSplit, cfg: DiagnosisConfig) -> dict[str, An
             "stop_dist_m": cfg.noise.stop_dist_m,
             "slope_rad": cfg.noise.slope_rad,
         },
-    }
-
-
-def _attribution(
-    v: Verdict, rows: list[dict[str, Any]], skipped: dict[str, str], nominal: Nominal
-) -> dict[str, Any]:
-    return {
-        "verdict": v.answer,
-        "reason": v.reason,
-        "winner": v.winner.key if v.winner else None,
-        "candidates": rows,
-        "skipped": skipped,
-        "nominal_held_loglik_per_event": float(nominal.held.loglik.mean()),
     }

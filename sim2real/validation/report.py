@@ -23,7 +23,7 @@ def text_report(r: DiagnosisResult) -> str:
     """The readable report (also the body of ``report.md``)."""
     s = r.summary
     a = s["attribution"]
-    lines = [f"verdict: {a['verdict']}", f"  {a['reason']}", ""]
+    lines = [f"verdict: {a['verdict']}", f"  {a['reason']}", *_parameter_lines(a), ""]
     lines.append(
         f"log: {s['log']['runs']} runs, {s['log']['events']} events"
         f" ({len(s['log']['calibration_runs'])} calibration, "
@@ -32,6 +32,22 @@ def text_report(r: DiagnosisResult) -> str:
     lines += ["", *_localise_lines(s["localise"]), "", *_candidate_lines(a), ""]
     lines += [*_gap_lines(s["quantify"]), *_rul_lines(s["quantify"])]
     return "\n".join(lines)
+
+
+def _parameter_lines(a: dict[str, Any]) -> list[str]:
+    """The winner's fitted parameter with its interval (none without a winner)."""
+    p = a.get("parameter")
+    if not p:
+        return []
+    lo, hi = p["interval"]
+    unit = "" if p["unit"] == "-" else f" {p['unit']}"
+    return [
+        f"  fitted {p['name']} = {p['value']:.4g}{unit},"
+        f" {p['level']:.0%} interval [{lo:.4g}, {hi:.4g}]"
+        f" ({p['method']}: {p['calibration_runs']} runs, {p['resamples']} resamples;"
+        f" {len(p['values_tried'])} values tried,"
+        f" {p['refine_evaluations']} by the refinement; the grid gave {p['grid_value']:.4g})"
+    ]
 
 
 def _localise_lines(loc: dict[str, Any]) -> list[str]:

@@ -45,7 +45,7 @@ def test_effects_are_canonical_and_checked() -> None:
         canonical_effects(["glaze:g=1"])
     with pytest.raises(ValueError, match="more than once"):
         canonical_effects(["heat_partition:phi=0.1", "heat_partition:phi=0.2"])
-    with pytest.raises(ValueError, match="AtlasSpec.effects"):
+    with pytest.raises(ValueError, match=r"AtlasSpec\.effects"):
         AtlasSpec(effects=("",))
 
 

@@ -127,4 +127,5 @@ def test_diagnosis_is_deterministic_for_a_seed(s2r_atlas: Atlas) -> None:
     log = _log([ThermocoupleBias(bias_k=6.0)], seed=14, n=3)
     a = diagnose(log, s2r_atlas, [ThermocoupleBias], FAST, seed=4).summary
     b = diagnose(log, s2r_atlas, [ThermocoupleBias], FAST, seed=4).summary
+    assert a["attribution"]["parameter"] is not None  # the refinement and its bootstrap too
     assert a["attribution"] == b["attribution"]

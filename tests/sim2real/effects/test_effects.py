@@ -9,7 +9,7 @@ import pytest
 
 from brake_env.data.datasets import make_dataset
 from brake_env.model.atlas import Atlas, AtlasSpec
-from sim2real.effects.interface import Effect, InEventPhysics, SensorContext
+from sim2real.effects.interface import Effect, SensorContext
 from sim2real.effects.library import (
     LIBRARY,
     NewtonCooling,
