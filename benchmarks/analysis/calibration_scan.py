@@ -5,7 +5,7 @@ event always stops), the mean wear per event at the last 1% layer before end of 
 or the 5% wear-out limit) over that of a fresh pad, estimated by Monte
 Carlo on the physics itself (no atlas interpolation), and the expected life at K = 2e-6.
 
-Run: ``.venv/bin/python docs/calibration_scan.py`` (about a minute on 2 cores).
+Run: ``.venv/bin/python benchmarks/analysis/calibration_scan.py`` (about a minute on 2 cores).
 """
 
 from __future__ import annotations
