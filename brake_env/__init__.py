@@ -3,8 +3,10 @@ the wear clock, the K distribution, the coupled run-to-failure simulator), ``dat
 logs and datasets), ``prognostics`` (predictor protocol and registry, metrics, evaluation),
 ``env`` (BrakeWear-v0, its vector env and the RUL observation wrapper) and ``cli``.
 
-Importing the package registers ``BrakeWear-v0``, ``BrakeWearFleet-v0`` and
-``BrakeWearFleetSmall-v0`` (the 2-vehicle fleet, ``SMALL_FLEET``). No torch or
+Importing the package registers ``BrakeWear-v0``, ``BrakeWearFleet-v1`` (the benchmark's
+fleet: a fleet file, 365 shifts, the episode's cost in the last step's ``info``; docs/
+benchmark.md), and the earlier ``BrakeWearFleet-v0`` (730 shifts, no episode cost) and
+``BrakeWearFleetSmall-v0`` (the 2-vehicle fleet, ``SMALL_FLEET``), which keep working. No torch or
 Stable-Baselines3 here, and no import of the downstream packages (twin, baselines, agents,
 sim2real): they plug in through entry points.
 """
@@ -29,12 +31,23 @@ if "BrakeWear-v0" not in registry:
 # ``max_episode_steps`` too (or -1), else TimeLimit cuts it short: see the fleet env's
 # "Episode End". Fewer shifts need nothing (the env truncates first).
 FLEET_SHIFTS = FleetConfig.episode_shifts
+BENCHMARK_SHIFTS = 365
 
 if "BrakeWearFleet-v0" not in registry:
     register(
         id="BrakeWearFleet-v0",
         entry_point="brake_env.env.fleet.env:make_fleet_env",
         max_episode_steps=FLEET_SHIFTS,
+        disable_env_checker=False,
+    )
+
+# v1: the fleet of a fleet file (default: the shipped ``default``; ``fleet="small"`` or a
+# path), whose episode_shifts (365 in the shipped files) is the benchmark's episode.
+if "BrakeWearFleet-v1" not in registry:
+    register(
+        id="BrakeWearFleet-v1",
+        entry_point="brake_env.env.fleet.env:make_fleet_env_v1",
+        max_episode_steps=BENCHMARK_SHIFTS,
         disable_env_checker=False,
     )
 

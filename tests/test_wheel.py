@@ -82,3 +82,12 @@ def test_wheel_installs_and_trains_outside_the_source_tree(tmp_path: Path) -> No
         and zoo.read_text()
         == (ROOT / "agents" / "learning" / "hyperparams" / "rl_zoo3" / "ppo.yml").read_text()
     )
+    # The fleet files and suites are package data: the installed package reads them.
+    shipped = (
+        "from brake_env.env.fleet.fleet_file import shipped_fleets;"
+        " from agents.fleet.benchmark.suite import shipped_suites, read_suite;"
+        " print(shipped_fleets(), shipped_suites(),"
+        " read_suite('large').fleet_file.config.n_vehicles)"
+    )
+    got = _run(python, "-c", shipped, cwd=work, env=env)
+    assert "'default-mixed'" in got and got.split()[-1] == "24", got

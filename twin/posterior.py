@@ -196,6 +196,11 @@ class TwinGrid:
         spread = self.z_interval * self.wear.life_std(k_mean)
         lower = np.maximum(life_hi - n_after - spread, 0.0)
         upper = np.maximum(life_lo - n_after, 0.0) + spread
+        # The mean weighs the life table at the grid points, the interval interpolates K's
+        # quantiles inside the cells: on a posterior peaked between a few points (physics the
+        # pads do not follow) the mean can fall outside; the interval is widened to hold it.
+        np.minimum(lower, rul, out=lower)
+        np.maximum(upper, rul, out=upper)
         volume = self.wear.volume_at_work(k_mean * n_after)
         return rul, lower, upper, volume, k_mean
 

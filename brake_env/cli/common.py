@@ -50,6 +50,19 @@ def int_at_least(lo: int) -> Callable[[str], int]:
     return _typed(f"int>={lo}", parse)
 
 
+def int_range(lo: int, hi: int) -> Callable[[str], int]:
+    """An argparse ``type`` for integers in [``lo``, ``hi``], with one clear error otherwise."""
+    at_least = int_at_least(lo)
+
+    def parse(text: str) -> int:
+        n = at_least(text)
+        if n > hi:
+            raise argparse.ArgumentTypeError(f"expected an integer in [{lo}, {hi}], got {text}")
+        return n
+
+    return _typed(f"int in [{lo}, {hi}]", parse)
+
+
 SEED = int_at_least(0)  # numpy's SeedSequence takes no negative seed
 
 

@@ -10,18 +10,23 @@ from typing import Any
 from tqdm import tqdm
 
 from agents.fleet.settings import FleetStudyConfig, FleetTraining
+from agents.fleet.study.build import truth_atlas
 from agents.fleet.study.run import report, run_fleet_study
 from brake_env.cli.common import load_atlas, make_runner
 from brake_env.cli.demo import DEMO_PREDICTORS, DEMO_WORKERS, DemoContext
 from brake_env.model.atlas import Atlas
+from brake_env.model.effects import canonical_effects
+from brake_env.model.params import BrakeModel
 from brake_env.runner import Runner, ray_available
 
 
 def cmd_fleet_study(args: argparse.Namespace) -> dict[str, Any]:
     config = config_from_args(args)
+    atlas = load_atlas(args)
+    truth = truth_atlas(config, atlas, args.cache_dir)  # with --effect: built on a cache miss
     with make_runner(args) as runner:
-        return study_and_report(config, load_atlas(args), Path(args.out), runner,
-                                quiet=args.quiet)  # fmt: skip
+        return study_and_report(config, atlas, Path(args.out), runner, quiet=args.quiet,
+                                truth=truth)  # fmt: skip
 
 
 def demo_stage(ctx: DemoContext) -> tuple[dict[str, Any], str]:
@@ -77,23 +82,33 @@ def config_from_args(args: argparse.Namespace) -> FleetStudyConfig:
         size=args.size, shifts=args.shifts, predictors=args.predictors,
         heuristics=tuple(args.heuristics), trials=args.trials, trials_best=args.trials_best,
         tune_episodes=args.tune_episodes, eval_episodes=args.eval_episodes,
+        episodes_from=args.episodes_from,
         n_train_runs=args.n_train_runs, agent_predictors=args.agents,
         agent_seeds=args.agent_seeds, shared_seeds=args.shared_seeds, training=training,
         curve_episodes=args.curve_episodes, curve_every=args.curve_every, tail=args.tail,
         seed=args.seed, rollout_predictors=args.rollout, rollout_horizon=args.rollout_horizon,
         rollout_samples=args.rollout_samples, rollout_chunk=args.rollout_chunk,
         bound_iterations=args.bound_iterations, objective=args.objective,
+        effects=_effects(args),
     )  # fmt: skip
+
+
+def _effects(args: argparse.Namespace) -> tuple[str, ...]:
+    """``--effect``'s texts, canonical (an unknown one, or one an atlas cannot hold, refused
+    by name before any work)."""
+    texts = getattr(args, "effect", None) or []
+    return canonical_effects(texts, BrakeModel.preset(args.preset)) if texts else ()
 
 
 def study_and_report(
     config: FleetStudyConfig, atlas: Atlas, out: Path, runner: Runner, quiet: bool = False,
-    resume: bool = True,
+    resume: bool = True, *, truth: Atlas | None = None,
 ) -> dict[str, Any]:  # fmt: skip
     def progress(label: str, total: int) -> Any:
         return tqdm(total=total, desc=label, unit="unit", disable=quiet)
 
-    summary = run_fleet_study(config, atlas, out, runner, progress=progress, resume=resume)
+    summary = run_fleet_study(config, atlas, out, runner, progress=progress, resume=resume,
+                              truth=truth)  # fmt: skip
     print(report(summary))
     print(f"wrote {out / 'costs.json'}, " + ", ".join(summary["figures"]))
     return summary

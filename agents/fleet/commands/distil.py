@@ -17,7 +17,7 @@ from agents.fleet.settings import DistilConfig, FleetStudyConfig
 from agents.fleet.study.distil import run_distil
 from agents.fleet.study.distil_job import Job
 from agents.fleet.study.distil_summary import distil_report, study_row, summarise_distil
-from agents.fleet.study.units import fit_unit
+from agents.fleet.study.units import study_fit
 from brake_env.cli.common import load_atlas, make_runner
 from brake_env.output import write_json, write_text
 from brake_env.prognostics.registry import ORACLE
@@ -64,9 +64,14 @@ def job_from_args(args: argparse.Namespace) -> tuple[Job, dict[str, Any]]:
 
 def cmd_fleet_distil(args: argparse.Namespace) -> dict[str, Any]:
     job, study = job_from_args(args)
+    if job.study.effects:
+        raise ValueError(
+            f"--study {args.study}: its fleet wears with the effects {list(job.study.effects)};"
+            " fleet-distil takes only studies without effects"
+        )
     atlas = load_atlas(args)
     p = job.distil.predictor
-    fitted = None if p == ORACLE else fit_unit(p, atlas, job.study.seed, job.study.n_train_runs)
+    fitted = None if p == ORACLE else study_fit(job.study, p, atlas, atlas)
     out = Path(args.out)
 
     def progress(label: str, total: int) -> Any:

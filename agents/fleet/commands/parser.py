@@ -8,17 +8,37 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from agents.fleet.settings import DEFAULT_HEURISTICS, HEURISTICS, OBJECTIVES, SIZES
+from agents.fleet.commands import benchmark
+from agents.fleet.settings import (
+    DEFAULT_HEURISTICS,
+    HEURISTICS,
+    OBJECTIVES,
+    study_predictor_names,
+)
 from brake_env.cli.common import (
     NONNEGATIVE,
     POSITIVE,
     add_common_args,
     add_runner_args,
-    agent_list,
     int_at_least,
-    predictor_list,
+    int_range,
+    name_list,
 )
+from brake_env.env.fleet.fleet_file import fleet_path, shipped_fleets
 from brake_env.prognostics.registry import predictor_names
+
+# The registry's predictors and NAME+effect (NAME made on the physics with --effect)
+predictor_list = name_list(study_predictor_names)
+agent_list = name_list(study_predictor_names, allow_empty=True)
+
+
+def fleet_name(text: str) -> str:
+    """``--fleet``: a shipped fleet's name or an existing file (read when the study starts)."""
+    try:
+        fleet_path(text)
+    except ValueError as e:
+        raise argparse.ArgumentTypeError(str(e)) from None
+    return text
 
 
 def register(sub: argparse._SubParsersAction[Any]) -> None:
@@ -31,11 +51,22 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
         " MaskablePPO over training seeds, on the same evaluation episodes",
     )
     add_common_args(f, "out/fleet-study")
-    f.add_argument("--size", choices=SIZES, default="small", help="small: 2 vehicles (reference)")
+    f.add_argument(
+        "--fleet", "--size", dest="size", type=fleet_name, default="small", metavar="NAME|FILE",
+        help=f"a shipped fleet ({', '.join(shipped_fleets())}; small: 2 vehicles, with the"
+        " reference) or a fleet file (TOML; docs/benchmark.md); --size is its old name",
+    )  # fmt: skip
     f.add_argument("--shifts", type=int_at_least(2), default=365, help="an episode")
     f.add_argument(
-        "--predictors", type=predictor_list, default=predictor_names(), help="comma-separated"
-    )
+        "--predictors", type=predictor_list, default=predictor_names(),
+        help="comma-separated; NAME+effect: NAME made on the physics with the --effect(s)",
+    )  # fmt: skip
+    f.add_argument(
+        "--effect", action="append", default=[], metavar="NAME:P=V[,...]",
+        help="the fleet's pads (and the predictors' training pads) wear with this unmodelled"
+        " effect (the syntax of simulate --effect; repeatable; in-event and sensor effects);"
+        " the predictors are made on the nominal physics, NAME+effect on the effect's",
+    )  # fmt: skip
     f.add_argument(
         "--heuristics", nargs="+", choices=HEURISTICS, default=DEFAULT_HEURISTICS, metavar="NAME",
         help="heuristics to tune, each quoted",
@@ -49,6 +80,10 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
         " cost or the net cost (less the pad life left at the end)",
     )  # fmt: skip
     f.add_argument("--eval-episodes", type=int_at_least(2), default=40)
+    f.add_argument(
+        "--episodes-from", type=int_range(0, 2**31), default=0, metavar="N",
+        help="the first evaluation episode's seed (0: the episodes of every earlier study)",
+    )  # fmt: skip
     f.add_argument("--n-train-runs", type=int_at_least(1), default=10, help="pads to fit on")
     f.add_argument(
         "--tail", type=int_at_least(0), default=200,
@@ -60,6 +95,7 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
     f.add_argument("--atlas", default=None, help="atlas .npz instead of the cache")
     f.set_defaults(func="agents.fleet.commands.cli:cmd_fleet_study")
     _register_distil(sub)
+    benchmark.register(sub)
 
 
 def _add_planner_args(f: argparse.ArgumentParser) -> None:

@@ -25,10 +25,9 @@ from scipy.stats import DegenerateDataWarning, bootstrap, trim_mean
 from agents.fleet.policies.view import respects
 from agents.fleet.settings import OBJECTIVES, Objective
 from brake_env.env.fleet.config import COST_TERMS
-from brake_env.env.fleet.routes import HOT, route_wear_model
+from brake_env.env.fleet.episode_cost import FITS, headline, life_value
 
 F64 = NDArray[np.float64]
-FITS = ("window_fits", "shop_fits", "visits", "corrective_fits")
 
 
 @dataclass(frozen=True)
@@ -73,8 +72,7 @@ class EpisodeCost:
         """The headline figure: cost per vehicle-shift with pads priced when fitted (so
         that neither the free initial stock nor the spares left at the end, which the bill
         prices when ordered, move it), order and holding costs included."""
-        pads = self.pad_price * self.fits - self.terms["pad"]
-        return (self.total + pads) / (self.vehicles * self.shifts)
+        return headline(self.terms, self.counts, self.vehicles, self.shifts, self.pad_price)
 
     @property
     def net(self) -> float:
@@ -121,17 +119,6 @@ def run_episode(env: Any, policy: Any, seed: int, check_masks: bool = False) -> 
             counts[k] = counts.get(k, 0) + v
         shifts, done = shifts + 1, terminated or truncated
     return EpisodeCost(seed, n, shifts, terms, counts, base.config.costs.pad, life_value(base))
-
-
-def life_value(env: Any) -> float:
-    """The fleet's pad life left now, priced: each pad's expected hot life [shifts] (its
-    true volume and K) times ``pad + labour`` over a mean-K pad's hot life, summed."""
-    c = env.config
-    wear = route_wear_model(env.atlas, HOT)
-    truth = env.truth()
-    left = wear.rul(np.clip(truth["volume_frac"], wear.lower_edges[-1], 1.0), truth["wear_coeff"])
-    per_event = (c.costs.pad + c.costs.labour) / float(wear.life(c.k_mean))
-    return float(per_event * left.sum())
 
 
 def run_episodes(

@@ -1,6 +1,6 @@
-"""What a fleet-study unit builds from the settings: the env a policy acts on
-(:func:`rul_env`), the rules' layout, a tuned heuristic from its parameters, and episode costs
-as unit results and back.
+"""What a fleet-study unit builds from the settings: the physics the fleet wears on
+(:func:`truth_atlas`), the env a policy acts on (:func:`rul_env`), the rules' layout, a tuned
+heuristic from its parameters, and episode costs as unit results and back.
 
 The env runs with ``truth=False`` (nothing simulated ahead). The oracle's RUL is the
 closed-form expected RUL on the hot route from the pad's true volume and K
@@ -10,6 +10,8 @@ oracle predictor matches up to the noise of the wear to come, at ~20x the cost.
 
 from __future__ import annotations
 
+from dataclasses import dataclass, replace
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -21,22 +23,62 @@ from agents.fleet.settings import FleetStudyConfig
 from brake_env.env.fleet.env import BrakeWearFleetEnv
 from brake_env.env.fleet.route_rul import ROUTE_NAMES
 from brake_env.env.fleet.wrappers import ExpectedRULObservation, FleetRULObservation
-from brake_env.model.atlas import Atlas
+from brake_env.model.atlas import Atlas, AtlasSpec, cached_atlas
+from brake_env.model.effects import canonical_effects
 from brake_env.prognostics.protocol import Predictor
 from brake_env.prognostics.registry import ORACLE
 
 
+@dataclass(frozen=True, eq=False)
+class Fitted:
+    """A predictor as its user has it: fitted, and the atlas it was made on, which also
+    carries its RUL onto the routes (the nominal one when its user does not know the
+    effects the fleet wears with).
+
+    Attributes:
+        predictor: The fitted predictor.
+        atlas: The physics it was made on.
+    """
+
+    predictor: Predictor
+    atlas: Atlas
+
+
+def truth_atlas(
+    config: FleetStudyConfig, atlas: Atlas, cache_dir: str | Path | None = None
+) -> Atlas:
+    """The atlas the fleet's pads wear on: ``atlas`` itself, or with ``config.effects`` its
+    physics with the effects added (its own kept), from the atlas cache (built and cached
+    under its own hash on a miss; ``cache_dir`` default as
+    :func:`~brake_env.model.atlas.cached_atlas`'s).
+
+    Raises:
+        ValueError: An effect the plug-in does not know or an atlas cannot hold, named.
+    """
+    if not config.effects:
+        return atlas
+    return cached_atlas(truth_spec(config, atlas), cache_dir)
+
+
+def truth_spec(config: FleetStudyConfig, atlas: Atlas) -> AtlasSpec:
+    """The spec of :func:`truth_atlas`: ``atlas``'s with ``config.effects`` added."""
+    effects = canonical_effects([*atlas.spec.effects, *config.effects], atlas.spec.model)
+    return replace(atlas.spec, effects=effects)
+
+
 def rul_env(
-    config: FleetStudyConfig, atlas: Atlas, predictor: str, fitted: Predictor | None,
+    config: FleetStudyConfig, atlas: Atlas, predictor: str, fitted: Fitted | None,
     fields: tuple[str, ...] = ("rul_mean",), routes: tuple[str, ...] = ROUTE_NAMES,
 ) -> Any:  # fmt: skip
-    """The fleet env with ``predictor``'s RUL appended (``fields`` on each of ``routes``
-    per vehicle, in shifts)."""
+    """The fleet env on ``atlas`` (the truth) with ``predictor``'s RUL appended (``fields``
+    on each of ``routes`` per vehicle, in shifts; carried onto the routes with the fitted
+    predictor's own atlas)."""
     env = BrakeWearFleetEnv(config.fleet, atlas=atlas)
     if predictor == ORACLE:
         return ExpectedRULObservation(env, fields, routes)
     assert fitted is not None, f"predictor {predictor!r} needs a fitted predictor"
-    return FleetRULObservation(env, fitted, fields=fields, routes=routes)
+    return FleetRULObservation(env, fitted.predictor, fields=fields, routes=routes,
+                               atlas=fitted.atlas)  # fmt: skip
 
 
 def layout(config: FleetStudyConfig) -> FleetLayout:

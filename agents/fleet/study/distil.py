@@ -38,12 +38,11 @@ from agents.fleet.learning.dispatch import cover_needs
 from agents.fleet.learning.imitation import concat, record
 from agents.fleet.policies.view import FleetView
 from agents.fleet.settings import LABEL_SEED0, TRAIN_SEED0
-from agents.fleet.study.build import episodes_dict, single_thread
+from agents.fleet.study.build import Fitted, episodes_dict, single_thread
 from agents.fleet.study.curve import LearningCurve, mean_cost
 from agents.fleet.study.distil_job import Job, Timed, demo_dict, demo_of
 from agents.fleet.study.distil_shared import shared_seed_unit
 from brake_env.model.atlas import Atlas
-from brake_env.prognostics.protocol import Predictor
 from brake_env.runner import Later, Runner, Unit
 from brake_env.units import open_store
 
@@ -51,7 +50,7 @@ UNITS = "units"
 
 
 def label_unit(
-    job: Job, atlas: Atlas, fitted: Predictor | None, round_: int, seeds: list[int],
+    job: Job, atlas: Atlas, fitted: Fitted | None, round_: int, seeds: list[int],
     earlier: list[dict[str, Any]],
 ) -> dict[str, Any]:  # fmt: skip
     """The planner's labels on ``seeds``' episodes: it drives in round 0; later, a clone of
@@ -60,7 +59,7 @@ def label_unit(
 
 
 def _labels(
-    job: Job, atlas: Atlas, fitted: Predictor | None, round_: int, seeds: list[int],
+    job: Job, atlas: Atlas, fitted: Fitted | None, round_: int, seeds: list[int],
     earlier: list[dict[str, Any]],
 ) -> dict[str, Any]:  # fmt: skip
     t0 = time.perf_counter()
@@ -87,7 +86,7 @@ def _labels(
 
 
 def labelling_clone(
-    job: Job, atlas: Atlas, fitted: Predictor | None, earlier: list[dict[str, Any]]
+    job: Job, atlas: Atlas, fitted: Fitted | None, earlier: list[dict[str, Any]]
 ) -> Any:
     """The clone that drives a DAgger round: every earlier label, no PPO, fitted from
     :data:`LABEL_SEED0` (the same clone in every unit of the round)."""
@@ -98,7 +97,7 @@ def labelling_clone(
 
 
 def seed_unit(
-    job: Job, atlas: Atlas, fitted: Predictor | None, seed: int, labels: list[dict[str, Any]]
+    job: Job, atlas: Atlas, fitted: Fitted | None, seed: int, labels: list[dict[str, Any]]
 ) -> dict[str, Any]:
     """One training seed: the clone of every label, PPO if ``training.timesteps``, then the
     study's evaluation episodes with each decision timed."""
@@ -106,7 +105,7 @@ def seed_unit(
 
 
 def _seed(
-    job: Job, atlas: Atlas, fitted: Predictor | None, seed: int, labels: list[dict[str, Any]]
+    job: Job, atlas: Atlas, fitted: Fitted | None, seed: int, labels: list[dict[str, Any]]
 ) -> dict[str, Any]:
     from agents.fleet.learning.agent import FleetAgent
 
@@ -170,7 +169,7 @@ def distil_graph(job: Job, atlas: Any, fitted: Any) -> list[Unit | Later]:
 
 
 def run_distil(
-    job: Job, atlas: Atlas, fitted: Predictor | None, out: Path, runner: Runner,
+    job: Job, atlas: Atlas, fitted: Fitted | None, out: Path, runner: Runner,
     progress: Any = None,
 ) -> dict[str, Any]:  # fmt: skip
     """Every unit's result by key, kept in ``out/units`` (an interrupted run resumes)."""

@@ -17,10 +17,9 @@ from agents.fleet.learning.imitation import Demonstrations
 from agents.fleet.policies.rollout import RolloutPolicy
 from agents.fleet.policies.view import FleetLayout
 from agents.fleet.settings import DistilConfig, FleetStudyConfig
-from agents.fleet.study.build import rebuild_rule, rul_env
+from agents.fleet.study.build import Fitted, rebuild_rule, rul_env
 from agents.fleet.study.planners import planner_fields, study_planner
 from brake_env.model.atlas import Atlas
-from brake_env.prognostics.protocol import Predictor
 
 
 @dataclass(frozen=True)
@@ -44,7 +43,7 @@ class Job:
     def layout(self) -> FleetLayout:
         return FleetLayout.of(self.study.fleet, fields=self.fields)
 
-    def env(self, atlas: Atlas, fitted: Predictor | None) -> Any:
+    def env(self, atlas: Atlas, fitted: Fitted | None) -> Any:
         return rul_env(self.study, atlas, self.distil.predictor, fitted, self.fields)
 
     def rule(self) -> Any:

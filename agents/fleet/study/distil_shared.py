@@ -28,10 +28,9 @@ import numpy as np
 from agents.fleet.evaluation.costs import run_episodes
 from agents.fleet.learning.imitation import Demonstrations, concat
 from agents.fleet.settings import TRAIN_SEED0
-from agents.fleet.study.build import episodes_dict, single_thread
+from agents.fleet.study.build import Fitted, episodes_dict, single_thread
 from agents.fleet.study.distil_job import Job, Timed, demo_of
 from brake_env.model.atlas import Atlas
-from brake_env.prognostics.protocol import Predictor
 
 
 def recorded(job: Job, demo: Demonstrations) -> Any:
@@ -47,7 +46,7 @@ def recorded(job: Job, demo: Demonstrations) -> Any:
 
 
 def shared_seed_unit(
-    job: Job, atlas: Atlas, fitted: Predictor | None, seed: int, labels: list[dict[str, Any]]
+    job: Job, atlas: Atlas, fitted: Fitted | None, seed: int, labels: list[dict[str, Any]]
 ) -> dict[str, Any]:
     """One training seed of the shared policy: the clone of every label (TorchRL's networks,
     masked cross-entropy), then the study's evaluation episodes with each decision timed."""
@@ -55,7 +54,7 @@ def shared_seed_unit(
 
 
 def shared_clone(
-    job: Job, atlas: Atlas, fitted: Predictor | None, seed: int, demo: Demonstrations
+    job: Job, atlas: Atlas, fitted: Fitted | None, seed: int, demo: Demonstrations
 ) -> tuple[Any, float, int]:
     """The shared policy cloned from ``demo`` (TorchRL's networks, masked cross-entropy):
     (its :class:`~agents.fleet.learning.marl.MarlFleetPolicy`, its agreement with the
@@ -69,7 +68,7 @@ def shared_clone(
                       imitation_lr=tr.imitation_lr, hidden=tr.net_arch[-1],
                       depth=len(tr.net_arch), seed=TRAIN_SEED0 + 100 * seed)  # fmt: skip
     data = recorded(job, demo)
-    predictor = fitted if fitted is not None else job.distil.predictor
+    predictor = fitted.predictor if fitted is not None else job.distil.predictor
     par = BrakeWearFleetParallelEnv(job.study.fleet, predictor=predictor,
                                     spares=job.training(0).reorder, infos="none",
                                     atlas=atlas)  # fmt: skip
@@ -82,7 +81,7 @@ def shared_clone(
 
 
 def _shared(
-    job: Job, atlas: Atlas, fitted: Predictor | None, seed: int, labels: list[dict[str, Any]]
+    job: Job, atlas: Atlas, fitted: Fitted | None, seed: int, labels: list[dict[str, Any]]
 ) -> dict[str, Any]:
     t0 = time.perf_counter()
     demo = concat([demo_of(d) for d in labels])

@@ -30,10 +30,9 @@ from agents.fleet.policies.priced import PricedPolicy
 from agents.fleet.policies.rollout import RolloutPolicy
 from agents.fleet.policies.view import FleetLayout
 from agents.fleet.settings import FleetStudyConfig
-from agents.fleet.study.build import episodes_dict, rebuild_rule, rul_env
+from agents.fleet.study.build import Fitted, episodes_dict, rebuild_rule, rul_env
 from brake_env.env.fleet.env import BrakeWearFleetEnv
 from brake_env.model.atlas import Atlas
-from brake_env.prognostics.protocol import Predictor
 from brake_env.prognostics.registry import ORACLE
 
 BOUND = "Lagrangian bound"
@@ -95,7 +94,7 @@ def study_planner(config: FleetStudyConfig, atlas: Atlas, base: Any) -> RolloutP
 
 
 def rollout_unit(
-    config: FleetStudyConfig, atlas: Atlas, predictor: str, fitted: Predictor | None,
+    config: FleetStudyConfig, atlas: Atlas, predictor: str, fitted: Fitted | None,
     base: tuple[str, dict[str, Any]], seeds: list[int],
 ) -> dict[str, Any]:  # fmt: skip
     """The rollout planner on ``base`` (the predictor's best heuristic: name, parameters)

@@ -14,9 +14,9 @@ from pathlib import Path
 from typing import Any
 
 from agents.fleet.settings import FleetStudyConfig
-from agents.fleet.study.build import episodes_of, rebuild_rule, rul_env
+from agents.fleet.study.build import episodes_of, rebuild_rule, rul_env, truth_atlas, truth_spec
 from agents.fleet.study.summary import REFERENCE, summarise
-from agents.fleet.study.units import fit_unit, run_units
+from agents.fleet.study.units import run_units, study_fit
 from brake_env.model.atlas import Atlas
 from brake_env.output import table, write_json
 from brake_env.prognostics.registry import ORACLE
@@ -32,21 +32,51 @@ def run_fleet_study(
     progress: Any = None,
     resume: bool = True,
     n_resamples: int = 4000,
+    truth: Atlas | None = None,
 ) -> dict[str, Any]:
-    """Run, summarise and write ``out/costs.json`` and ``out/figures``; the summary."""
+    """Run, summarise and write ``out/costs.json`` and ``out/figures``; the summary.
+
+    ``atlas`` is the physics the predictors are made on; with ``config.effects`` the fleet
+    wears on ``truth``, the atlas with the effects (default: built or read from the default
+    atlas cache, :func:`~agents.fleet.study.build.truth_atlas`).
+
+    Raises:
+        ValueError: ``truth`` is not ``atlas`` with the study's effects, or an effect is
+            unknown or one an atlas cannot hold.
+    """
     t0 = time.perf_counter()
-    units = run_units(config, atlas, out, runner, progress, resume)
+    truth = _truth(config, atlas, truth)
+    units = run_units(config, atlas, out, runner, progress, resume, truth=truth)
     summary = summarise(config, units, n_resamples)
+    if config.effects:
+        summary["effect"].update(atlas=atlas.content_hash, truth_atlas=truth.content_hash)
     summary["seconds"] = time.perf_counter() - t0
-    figures = _figures(config, atlas, units, summary, out)
+    figures = _figures(config, (atlas, truth), units, summary, out)
     summary["figures"] = [str(p.relative_to(out)) for p in figures]
     write_json(summary, out / "costs.json")
     return summary
 
 
+def _truth(config: FleetStudyConfig, atlas: Atlas, truth: Atlas | None) -> Atlas:
+    """The fleet's atlas: ``atlas`` without effects, else ``truth`` (checked) or built."""
+    if not config.effects:
+        if truth is not None and truth.content_hash != atlas.content_hash:
+            raise ValueError("run_fleet_study: a truth atlas other than the atlas, and no effects")
+        return atlas
+    if truth is None:
+        return truth_atlas(config, atlas)
+    want = truth_spec(config, atlas)
+    if truth.content_hash != want.content_hash():
+        raise ValueError(
+            f"run_fleet_study: the truth atlas is not the atlas with the effects"
+            f" {list(want.effects)} (its effects: {list(truth.spec.effects)})"
+        )
+    return truth
+
+
 def _figures(
-    config: FleetStudyConfig, atlas: Atlas, units: dict[str, Any], summary: dict[str, Any],
-    out: Path,
+    config: FleetStudyConfig, atlases: tuple[Atlas, Atlas], units: dict[str, Any],
+    summary: dict[str, Any], out: Path,
 ) -> list[Path]:  # fmt: skip
     from agents.fleet.study.plots import plot_curves, plot_episode, plot_terms, trace_episode
 
@@ -55,10 +85,9 @@ def _figures(
         figures.append(plot_curves(summary["agents"], out / "figures" / "learning_curves.png"))
     p = "twin" if "twin" in config.predictors else config.predictors[0]
     h = summary["best_heuristic"][p]
-    fitted = None
-    if p != ORACLE:
-        fitted = fit_unit(p, atlas, config.seed, config.n_train_runs)
-    env = rul_env(config, atlas, p, fitted)
+    atlas, truth = atlases
+    fitted = None if p == ORACLE else study_fit(config, p, atlas, truth)
+    env = rul_env(config, truth, p, fitted)
     rule = rebuild_rule(config, h, units[config.heuristic_key(p, h)]["params"])
     seed = config.eval_seeds()[0]
     trace = trace_episode(env, rule, seed)
@@ -96,7 +125,7 @@ def report(summary: dict[str, Any], markdown: bool = False) -> str:
         rows.append([a["predictor"], f"{_agent_name(a)} (IQM of {a['seeds']} seeds)",
                      _ivs(a["iqm"], 2), "", _ivs(a.get("ratio_to_reference")), "", ""])  # fmt: skip
     lines += [table(rows, markdown), "* the predictor's best heuristic (on the tuning episodes)"]
-    lines += _planner_lines(summary)
+    lines += _planner_lines(summary) + _effect_lines(summary, markdown)
     rk = summary["ranking"]
     lines.append("\nPredictors by their best heuristic's cost: "
                  + ", ".join(f"{p} {rk['cost'][p]:.2f}" for p in rk["order"]))  # fmt: skip
@@ -137,6 +166,23 @@ def _planner_lines(summary: dict[str, Any]) -> list[str]:
             f" ({r['seconds'] / 60:.1f} min of evaluation in all)"
         )
     return lines
+
+
+def _effect_lines(summary: dict[str, Any], markdown: bool) -> list[str]:
+    """With effects: what the fleet wore with, and the predictors' best heuristics paired."""
+    e = summary.get("effect")
+    if not e:
+        return []
+    atlas = f" (atlas {e['truth_atlas'][:16]})" if "truth_atlas" in e else ""
+    rows = [["best heuristics", "net cost difference", "cost difference"]]
+    rows += [[k, _ivs(v["net"]), _ivs(v["cost"])] for k, v in e["pairs"].items()]
+    return [
+        f"\nThe fleet's pads wear with the unmodelled effect(s) {', '.join(e['effects'])}"
+        f"{atlas}, as do the predictors' training pads; each predictor is made on the nominal"
+        " physics, NAME+effect on the physics with the effects (the diagnosis fed back); the"
+        " oracle reads the truth. Paired over the evaluation episodes:",
+        table(rows, markdown),
+    ]
 
 
 def _agreement(a: dict[str, Any]) -> str:

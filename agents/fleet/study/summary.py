@@ -8,6 +8,7 @@ a distribution over training seeds: its figure is the interquartile mean (IQM) o
 seeds' mean costs, as rliable reports it, and its interval comes from a two-level
 bootstrap that resamples the seeds and, paired with the heuristic's, the episodes
 (percentile intervals of the IQM, its difference from the heuristic and their ratio).
+A study with effects also compares every two predictors' best heuristics (``effect``).
 """
 
 from __future__ import annotations
@@ -25,7 +26,7 @@ from agents.fleet.evaluation.costs import (
     seeds_interval,
     term_means,
 )
-from agents.fleet.settings import FleetStudyConfig, Objective
+from agents.fleet.settings import FED_BACK, FleetStudyConfig, Objective
 from agents.fleet.study.build import episodes_of
 from agents.fleet.study.planners import BOUND, PRICED
 from agents.fleet.study.units import best_heuristic
@@ -82,7 +83,29 @@ def summarise(
     }
     if ref is not None:
         out["terms"][REFERENCE] = term_means(ref)
+    if config.effects:
+        out["effect"] = _effect(config, eps, best)
     return out
+
+
+def _effect(
+    config: FleetStudyConfig, eps: dict[tuple[str, str], list[EpisodeCost]], best: dict[str, str]
+) -> dict[str, Any]:
+    """The effects, and every two predictors' best heuristics compared (paired over the
+    evaluation episodes, on the net and the headline cost): NAME against NAME+effect as
+    NAME minus NAME+effect (what the misfit costs, which feeding the diagnosis back
+    recovers), any other two as the one listed later minus the one listed earlier."""
+    pairs = {}
+    ps = config.predictors
+    for j, a in enumerate(ps):
+        for b in ps[:j]:
+            x, y = (b, a) if a == b + FED_BACK else (a, b)
+            ex, ey = eps[(x, best[x])], eps[(y, best[y])]
+            pairs[f"{x} minus {y}"] = {
+                o: _iv(paired_interval(figures(ex, o), figures(ey, o), "difference"))
+                for o in ("net", "cost")
+            }
+    return {"effects": list(config.effects), "pairs": pairs}
 
 
 def _planners(
@@ -125,6 +148,8 @@ def _config_dict(config: FleetStudyConfig) -> dict[str, Any]:
     from dataclasses import asdict
 
     d = asdict(config)
+    if not d["effects"]:  # a study without effects writes the config it always wrote
+        del d["effects"]
     d["fleet"] = {k: v for k, v in asdict(config.fleet).items() if not isinstance(v, dict)}
     return d
 

@@ -5,7 +5,9 @@ interrupted study resumes.
 Units, each a module-level function of its arguments alone:
 
 - :func:`fit_unit`: one predictor fitted on freshly simulated training pads (not stored:
-  refitting is cheaper than keeping a fitted MLP; only predictors with work left are fit);
+  refitting is cheaper than keeping a fitted MLP; only predictors with work left are fit).
+  With effects (``config.effects``) the pads wear on the truth's atlas, as a real history
+  would, and the predictor is made on the nominal atlas (``NAME+effect``: on the truth's);
 - :func:`heuristic_unit`: one heuristic tuned with Optuna on the tuning episodes with one
   predictor's RUL, then run on the evaluation episodes;
 - :func:`reference_unit`: the perfect-information reference (the exact program of
@@ -33,14 +35,21 @@ import numpy as np
 
 from agents.fleet.evaluation.costs import run_episodes
 from agents.fleet.evaluation.tuning import tune
-from agents.fleet.settings import TRAIN_SEED0, FleetStudyConfig
-from agents.fleet.study.build import episodes_dict, layout, rebuild_rule, rul_env, single_thread
+from agents.fleet.settings import FED_BACK, TRAIN_SEED0, FleetStudyConfig
+from agents.fleet.study.build import (
+    Fitted,
+    episodes_dict,
+    layout,
+    rebuild_rule,
+    rul_env,
+    single_thread,
+)
 from agents.fleet.study.curve import LearningCurve, mean_cost
 from agents.fleet.study.planners import bound_unit, rollout_unit
+from brake_env.data.datasets import DatasetSpec, make_dataset
 from brake_env.model.atlas import Atlas
 from brake_env.model.regime import WearRegime
-from brake_env.prognostics.protocol import Predictor
-from brake_env.prognostics.registry import ORACLE, fit_predictors
+from brake_env.prognostics.registry import ORACLE, fit_predictors, make_predictor
 from brake_env.runner import Later, Runner, Unit
 from brake_env.units import open_store
 
@@ -78,22 +87,31 @@ def run_units(
     runner: Runner,
     progress: Progress | None = None,
     resume: bool = True,
+    *,
+    truth: Atlas | None = None,
 ) -> dict[str, Any]:
     """Every stored unit's result by key (:func:`study_keys`), run as a graph
     (:meth:`~brake_env.runner.Runner.run_graph`): a unit starts as soon as the units it
-    needs are in, the heaviest first (:func:`weights`).
+    needs are in, the heaviest first (:func:`weights`). ``atlas`` is the physics the
+    predictors are made on, ``truth`` the one the fleet wears on (default ``atlas``; with
+    ``config.effects``, :func:`~agents.fleet.study.build.truth_atlas`).
 
     Raises:
         ValueError: ``out/units`` holds units of other settings, or is in use.
     """
     keys = study_keys(config)
+    truth = truth or atlas
     settings = {**config.settings(), "atlas": atlas.content_hash}
+    if config.effects:
+        settings["truth_atlas"] = truth.content_hash
     store = open_store(out / UNITS, settings, keys, "fleet-study") if resume else None
     kept = set(keys)
     bar = progress("fleet study units", len(keys)) if progress else None
+    shared = runner.share(truth)
+    nominal = shared if truth is atlas else runner.share(atlas)
     try:
         return runner.run_graph(
-            study_graph(config, runner, runner.share(atlas)), store,
+            study_graph(config, runner, shared, nominal), store,
             (lambda k, r: bar.update(1) if k in kept else None) if bar else None,
             kept=kept.__contains__,
         )  # fmt: skip
@@ -122,11 +140,13 @@ def weights(config: FleetStudyConfig) -> dict[str, float]:
     return w
 
 
-def study_graph(config: FleetStudyConfig, runner: Runner, atlas: Any) -> list[Unit | Later]:
-    """The study's units, each after what it needs: the predictors' fits (not stored); every
-    predictor x heuristic (its fit); the reference (the oracle's heuristics: its spares are
-    the oracle's best heuristic's (s, S)); the agents (their predictor's fit and heuristics:
-    each is warm-started from the best one when ``training.imitation_episodes`` > 0)."""
+def study_graph(
+    config: FleetStudyConfig, runner: Runner, atlas: Any, nominal: Any = None
+) -> list[Unit | Later]:
+    """The study's units on ``atlas`` (the truth), each after what it needs: the predictors'
+    fits (not stored; made on ``nominal``, default ``atlas``); each predictor x heuristic (its
+    fit); the reference (the oracle's heuristics; its spares the oracle's best one's (s, S));
+    the agents (their predictor's fit and heuristics; cloned from the best one if asked)."""
     w = weights(config)
     shared: dict[str, Any] = {}  # each fitted predictor put in Ray's object store once
 
@@ -168,7 +188,7 @@ def study_graph(config: FleetStudyConfig, runner: Runner, atlas: Any) -> list[Un
         return sum(w[k] for k in keys)
 
     nodes: list[Unit | Later] = [
-        Unit(f"fit-{p}", fit_unit, (p, atlas, config.seed, config.n_train_runs), waiting(p))
+        Unit(f"fit-{p}", fit_unit, fit_args(config, p, nominal or atlas, atlas), waiting(p))
         for p in config.predictors if p != ORACLE
     ]  # fmt: skip
     nodes += [Later(config.heuristic_key(p, h), fit_of(p), partial(heuristic, p=p, h=h))
@@ -218,14 +238,37 @@ def _spares(config: FleetStudyConfig, results: dict[str, Any], best: str | None)
     return int(rule.params.s), int(rule.params.S)
 
 
-def fit_unit(name: str, atlas: Atlas, seed: int, n_train_runs: int) -> Predictor:
-    """``name`` fitted on ``n_train_runs`` simulated run-to-failure pads (study's K)."""
-    fitted, _ = fit_predictors((name,), atlas, seed, n_train_runs, WearRegime())
-    return fitted[name]
+def fit_args(
+    config: FleetStudyConfig, predictor: str, nominal: Atlas, truth: Atlas
+) -> tuple[Any, ...]:
+    """:func:`fit_unit`'s arguments for the study's ``predictor``: ``NAME+effect`` is NAME
+    made on the truth's atlas (the diagnosis fed back), any other name on the nominal one."""
+    fed = predictor.endswith(FED_BACK)
+    name = predictor.removesuffix(FED_BACK)
+    return (name, truth if fed else nominal, config.seed, config.n_train_runs, truth)
+
+
+def study_fit(config: FleetStudyConfig, predictor: str, nominal: Atlas, truth: Atlas) -> Fitted:
+    """The study's fit of ``predictor`` (as its units have it)."""
+    return fit_unit(*fit_args(config, predictor, nominal, truth))
+
+
+def fit_unit(
+    name: str, atlas: Atlas, seed: int, n_train_runs: int, truth: Atlas | None = None
+) -> Fitted:
+    """``name`` made on ``atlas`` and fitted on ``n_train_runs`` run-to-failure pads (the
+    study's K) simulated on ``truth`` (default ``atlas``: the pads wear as it models them)."""
+    if truth is None or truth.content_hash == atlas.content_hash:
+        fitted, _ = fit_predictors((name,), atlas, seed, n_train_runs, WearRegime())
+        return Fitted(fitted[name], atlas)
+    spec = DatasetSpec(n_train=n_train_runs, n_id=0, n_ood_slow=0, n_ood_fast=0,
+                       wear=WearRegime())  # fmt: skip
+    log = make_dataset(truth, spec, seed).logs["train"]
+    return Fitted(make_predictor(name, atlas, seed).fit(log), atlas)
 
 
 def heuristic_unit(
-    config: FleetStudyConfig, atlas: Atlas, predictor: str, fitted: Predictor | None,
+    config: FleetStudyConfig, atlas: Atlas, predictor: str, fitted: Fitted | None,
     heuristic: str,
 ) -> dict[str, Any]:  # fmt: skip
     """Tune ``heuristic`` on the tuning episodes with ``predictor``'s RUL, then run it on
@@ -294,7 +337,7 @@ class AgentRun:
 
 
 def agent_unit(
-    config: FleetStudyConfig, atlas: Atlas, fitted: Predictor | None, run: AgentRun
+    config: FleetStudyConfig, atlas: Atlas, fitted: Fitted | None, run: AgentRun
 ) -> dict[str, Any]:
     """MaskablePPO trained with the predictor's RUL from the run's training seed; its
     learning curve and its costs on the evaluation episodes."""
@@ -302,7 +345,7 @@ def agent_unit(
 
 
 def _agent(
-    config: FleetStudyConfig, atlas: Atlas, fitted: Predictor | None, run: AgentRun
+    config: FleetStudyConfig, atlas: Atlas, fitted: Fitted | None, run: AgentRun
 ) -> dict[str, Any]:
     predictor, seed, kind, teacher = run.predictor, run.seed, run.kind, run.teacher
     from agents.fleet.learning.agent import FleetAgent, train_fleet_agent

@@ -12,6 +12,8 @@ from numpy.typing import NDArray
 from brake_env.env.fleet import rules
 from brake_env.env.fleet import spaces as fs
 from brake_env.env.fleet.config import COST_TERMS, ENV_ID, FleetConfig
+from brake_env.env.fleet.episode_cost import EpisodeCostInfo
+from brake_env.env.fleet.fleet_file import read_fleet
 from brake_env.env.fleet.pads import FleetPads, ShiftEvents
 from brake_env.env.fleet.render import FleetFrame, ansi
 from brake_env.env.fleet.routes import UNIFORM, route_indices, route_wear_model
@@ -139,8 +141,13 @@ class BrakeWearFleetEnv(gym.Env[NDArray[np.float32], NDArray[np.int64]]):
         config: FleetConfig | None = None,
         atlas: Atlas | str | os.PathLike[str] | None = None,
         render_mode: str | None = None,
+        fleet: str | os.PathLike[str] | None = None,
         **kwargs: Any,
     ) -> None:
+        if fleet is not None:  # a fleet file or a shipped fleet's name, kwargs on top
+            if config is not None:
+                raise ValueError(f"{ENV_ID}: give config or fleet, not both")
+            config = read_fleet(fleet).config
         self.config = FleetConfig.from_kwargs(config, **kwargs)
         check_render_mode(ENV_ID, render_mode, self.metadata["render_modes"])
         self.render_mode = render_mode
@@ -372,5 +379,14 @@ class BrakeWearFleetEnv(gym.Env[NDArray[np.float32], NDArray[np.int64]]):
 
 
 def make_fleet_env(**kwargs: Any) -> gym.Env[Any, Any]:
-    """The registered entry point of the fleet envs (:func:`make_registered`)."""
+    """The registered entry point of the v0 fleet envs (:func:`make_registered`)."""
     return make_registered(BrakeWearFleetEnv, **kwargs)
+
+
+def make_fleet_env_v1(
+    fleet: str | os.PathLike[str] = "default", **kwargs: Any
+) -> gym.Env[Any, Any]:
+    """``BrakeWearFleet-v1``'s entry point: the benchmark's fleet (a fleet file or a shipped
+    fleet's name; ``default``: 12 vehicles, 365 shifts) with the episode's headline and net
+    cost in the last step's ``info["episode_cost"]`` (:class:`EpisodeCostInfo`)."""
+    return EpisodeCostInfo(make_registered(BrakeWearFleetEnv, fleet=fleet, **kwargs))

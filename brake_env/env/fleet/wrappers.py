@@ -18,6 +18,7 @@ from brake_env.env.fleet.pads import ShiftEvents
 from brake_env.env.fleet.route_rul import ROUTE_NAMES, RouteTracker, duty_clocks
 from brake_env.env.fleet.routes import ROUTE_INDEX
 from brake_env.env.shared import require_env
+from brake_env.model.atlas import Atlas
 from brake_env.model.streams import SENSOR_CHANNELS
 from brake_env.prognostics.fleet import LoopFleet, vectorises
 from brake_env.prognostics.protocol import EventBatch, Oracle, RULEstimate, RULPredictor
@@ -64,6 +65,9 @@ class FleetRULObservation(
         predictor: A fitted RUL predictor.
         fields: Estimate fields to append: ``rul_mean``, ``rul_lower``, ``rul_upper``.
         routes: Routes whose RUL is appended: ``hot``, ``mild`` (or ``uniform``).
+        atlas: The physics the predictor's user has, which carries its RUL onto the routes
+            (the routes' wear rates); default the env's. A user who does not know an
+            effect the env's pads wear with carries it with the nominal atlas.
     """
 
     def __init__(
@@ -72,6 +76,7 @@ class FleetRULObservation(
         predictor: RULPredictor,
         fields: tuple[str, ...] = ESTIMATE_FIELDS,
         routes: tuple[str, ...] = ROUTE_NAMES,
+        atlas: Atlas | None = None,
     ) -> None:
         super().__init__(env)
         require_env("FleetRULObservation", env, BrakeWearFleetEnv, ENV_ID)
@@ -79,7 +84,7 @@ class FleetRULObservation(
         self.observation_space = _appended_space(env, len(fields) * len(routes))  # type: ignore[assignment]
         base: Any = env.unwrapped
         self.n, self.per_shift = int(base.config.n_vehicles), float(base.config.events_per_shift)
-        self.predictor = predictor
+        self.predictor, self.atlas = predictor, atlas
         self.oracle = isinstance(predictor, Oracle)
         self._routes_idx = [ROUTE_INDEX[r] for r in routes]
         self._tracker: RouteTracker | None = None
@@ -101,7 +106,8 @@ class FleetRULObservation(
                     else LoopFleet(self.predictor, self.n)
                 )
                 k_mean = base.config.wear.k_mean
-                self._tracker = RouteTracker(fleet, base.atlas, self.routes, k_mean)
+                atlas = base.atlas if self.atlas is None else self.atlas
+                self._tracker = RouteTracker(fleet, atlas, self.routes, k_mean)
             self._tracker.reset(base.pads.pos.astype(np.float64))
             self._from_tracker()
         info["rul_estimate"] = self._info()

@@ -23,8 +23,7 @@ from agents.fleet.policies.lagrangian import (
 )
 from agents.fleet.policies.lagrangian_search import search
 from agents.fleet.policies.priced import PricedPolicy
-from agents.fleet.settings import SMALL_FLEET
-from brake_env.env.fleet.config import FleetConfig, FleetCosts
+from brake_env.env.fleet.config import SMALL_FLEET, FleetConfig, FleetCosts
 from brake_env.env.fleet.env import BrakeWearFleetEnv
 from brake_env.env.fleet.rules import shortfall_cost
 from brake_env.env.fleet.shop import HOT, MILD, PARK, SERVICE
@@ -195,7 +194,7 @@ def test_build_charges_the_orders_share_only_when_asked(atlas):
 
 
 def test_the_credit_is_priced_as_the_policies_net_cost_and_never_capped():
-    from agents.fleet.evaluation.costs import life_value
+    from brake_env.env.fleet.episode_cost import life_value
 
     cfg = FleetConfig(episode_shifts=30)
     env = BrakeWearFleetEnv(cfg)

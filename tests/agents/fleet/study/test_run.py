@@ -60,8 +60,10 @@ def test_the_config_names_what_is_wrong():
         FleetStudyConfig(predictors=("oracle",), agent_predictors=("twin",))
     with pytest.raises(ValueError, match="eval_episodes"):
         FleetStudyConfig(eval_episodes=1)
-    with pytest.raises(ValueError, match="size"):
-        FleetStudyConfig(size="huge")  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match="'huge': no such file, and not a shipped fleet"):
+        FleetStudyConfig(size="huge")
+    with pytest.raises(ValueError, match="episodes_from must be an integer"):
+        FleetStudyConfig(episodes_from=-1)
     with pytest.raises(ValueError, match="agent_seeds, shared_seeds and bound_iterations"):
         FleetStudyConfig(agent_seeds=-1)
     with pytest.raises(ValueError, match="rollout predictor"):

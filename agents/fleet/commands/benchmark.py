@@ -1,0 +1,161 @@
+"""``brakewear fleet-score`` (a policy scored on a suite's test split against the shipped
+baselines and the bound) and ``brakewear fleet-baselines`` (a suite's baselines made by a
+fleet study of its test split, tuned on its dev side)."""
+
+from __future__ import annotations
+
+import argparse
+import shlex
+import sys
+from pathlib import Path
+from typing import Any
+
+from brake_env.cli.common import add_runner_args, int_at_least, int_range, out_dir
+from brake_env.output import table, write_json
+
+_BUDGET = ("predictors", "heuristics", "trials", "trials_best", "bound_iterations",
+           "rollout_predictors")  # fmt: skip
+
+
+def register(sub: argparse._SubParsersAction[Any]) -> None:
+    """Add ``fleet-score`` and ``fleet-baselines`` to the ``brakewear`` parser."""
+    fmt = argparse.ArgumentDefaultsHelpFormatter
+    s = sub.add_parser(
+        "fleet-score", formatter_class=fmt,
+        help="score a policy on a suite's sealed test split against the shipped baselines and"
+        " the bound (docs/benchmark.md)",
+    )  # fmt: skip
+    _suite_args(s, "out/fleet-score")
+    s.add_argument(
+        "--policy", required=True, metavar="MODULE:FACTORY|baseline:NAME",
+        help="FACTORY(env) returns an object with SB3's predict (masks given to a"
+        " MaskablePPO) or a callable obs -> action; baseline:NAME re-scores a shipped rule",
+    )  # fmt: skip
+    s.add_argument(
+        "--episodes-from", type=int_range(0, 2**31), default=None, metavar="N",
+        help="move the test split to seeds N.. (fresh episodes; the shipped baselines then"
+        " pair with nothing: re-score them as baseline:NAME)",
+    )  # fmt: skip
+    s.add_argument(
+        "--episodes", type=int_at_least(2), default=None, help="the test split's first N only"
+    )
+    s.add_argument(
+        "--baselines", default=None, metavar="FILE",
+        help="a baselines.json of fleet-baselines instead of the suite's shipped one",
+    )  # fmt: skip
+    s.set_defaults(func="agents.fleet.commands.benchmark:cmd_fleet_score")
+    b = sub.add_parser(
+        "fleet-baselines", formatter_class=fmt,
+        help="a suite's baselines: every predictor's best rule tuned on the dev side, the"
+        " bound and the price-directed policy, run on the test split; baselines.json",
+    )  # fmt: skip
+    _suite_args(b, "out/fleet-baselines")
+    b.add_argument("--predictors", default="oracle,twin,window,data,physics",
+                   help="comma-separated")  # fmt: skip
+    b.add_argument("--trials-best", type=int_at_least(1), default=45, help="the rule's Optuna")
+    b.add_argument("--bound-iterations", type=int_at_least(0), default=200)
+    b.add_argument("--rollout", default="", help="predictors given the rollout planner")
+    add_runner_args(b, workers=2)
+    b.set_defaults(func="agents.fleet.commands.benchmark:cmd_fleet_baselines")
+    lb = sub.add_parser(
+        "fleet-leaderboard", formatter_class=fmt,
+        help="rewrite the leaderboard of docs/benchmark.md from the shipped baselines",
+    )  # fmt: skip
+    lb.add_argument("--page", default="docs/benchmark.md", help="the page (between its markers)")
+    lb.set_defaults(func="agents.fleet.commands.benchmark:cmd_fleet_leaderboard")
+
+
+def _suite_args(p: argparse.ArgumentParser, out: str) -> None:
+    """The suite and where to write; no seed, preset or atlas: the suite fixes them (its
+    protocol's seed, its fleet's preset)."""
+    from agents.fleet.benchmark.suite import shipped_suites
+
+    p.add_argument(
+        "--suite", default="default", metavar="NAME|FILE",
+        help=f"a shipped suite ({', '.join(shipped_suites())}) or a suite file",
+    )  # fmt: skip
+    p.add_argument("--out", type=out_dir, default=out, help="output directory")
+    p.add_argument(
+        "--cache-dir", type=out_dir, default=None,
+        help="atlas cache (default $BRAKEWEAR_CACHE_DIR or ~/.cache/brakewear)",
+    )  # fmt: skip
+    p.add_argument("--quiet", action="store_true", help="no progress bars")
+
+
+def suite_atlas(suite: Any, args: argparse.Namespace) -> Any:
+    """The atlas of the suite's fleet's preset, from the cache."""
+    from brake_env.cli.common import load_atlas
+
+    return load_atlas(args, preset=suite.fleet_file.config.preset)
+
+
+def cmd_fleet_score(args: argparse.Namespace) -> dict[str, Any]:
+    from tqdm import tqdm
+
+    from agents.fleet.benchmark.baselines import read_baselines
+    from agents.fleet.benchmark.score import score
+    from agents.fleet.benchmark.suite import read_suite
+
+    suite = read_suite(args.suite)
+    n = args.episodes or suite.test_episodes
+    with tqdm(total=n, desc=f"fleet-score {suite.name}", unit="episode",
+              disable=args.quiet) as bar:  # fmt: skip
+        result = score(suite, args.policy, suite_atlas(suite, args), progress=bar,
+                       episodes_from=args.episodes_from, episodes=args.episodes,
+                       baselines=read_baselines(suite, args.baselines))  # fmt: skip
+    result["command"] = "brakewear " + shlex.join(sys.argv[1:])
+    out = Path(args.out)
+    write_json(result, out / "score.json")
+    print(score_table(result))
+    print(f"wrote {out / 'score.json'}")
+    return result
+
+
+def score_table(r: dict[str, Any]) -> str:
+    """The one-screen table of a score."""
+    cur = f" per vehicle-shift, suite {r['suite']}, {len(r['episodes']['seed'])} test episodes"
+    rows = [["policy", "net", "policy minus it (95%)"], [r["policy"], f"{r['net']:.3f}", ""]]
+    for name, b in sorted(r["baselines"].items(), key=lambda kv: kv[1]["net"]):
+        m = b["minus"]
+        rows.append(
+            [name, f"{b['net']:.3f}", f"{m['mean']:+.3f} [{m['low']:+.3f}, {m['high']:+.3f}]"]
+        )
+    if r["bound"] is not None:
+        rows.append(["bound", f"{r['bound']['net']:.3f}", ""])
+    lines = [f"Net cost{cur} (observing {r['observe']}'s RUL):", table(rows)]
+    if r["ratio_to_bound"] is not None:
+        q = r["ratio_to_bound"]
+        lines.append(f"ratio to the bound: {q['mean']:.3f} [{q['low']:.3f}, {q['high']:.3f}]")
+    if r["not_paired"]:
+        lines.append("not paired (other episodes): " + ", ".join(r["not_paired"]))
+    return "\n".join(lines)
+
+
+def cmd_fleet_baselines(args: argparse.Namespace) -> dict[str, Any]:
+    from agents.fleet.benchmark.baselines import from_summary
+    from agents.fleet.benchmark.suite import read_suite
+    from agents.fleet.commands.cli import study_and_report
+    from brake_env.cli.common import make_runner
+
+    suite = read_suite(args.suite)
+    config = suite.study_config(
+        "test", predictors=tuple(p for p in args.predictors.split(",") if p),
+        heuristics=("best combination",), trials_best=args.trials_best,
+        bound_iterations=args.bound_iterations,
+        rollout_predictors=tuple(p for p in args.rollout.split(",") if p),
+    )  # fmt: skip
+    out = Path(args.out)
+    with make_runner(args) as runner:
+        summary = study_and_report(config, suite_atlas(suite, args), out, runner,
+                                   quiet=args.quiet)  # fmt: skip
+    made = from_summary(suite, summary, "brakewear " + shlex.join(sys.argv[1:]))
+    write_json(made, out / "baselines.json")
+    print(f"wrote {out / 'baselines.json'} ({len(made['baselines'])} baselines"
+          f"{', the bound' if 'bound' in made else ''})")  # fmt: skip
+    return made
+
+
+def cmd_fleet_leaderboard(args: argparse.Namespace) -> None:
+    from agents.fleet.benchmark.page import write_page
+
+    print(f"wrote the leaderboard of {write_page(args.page)}")
