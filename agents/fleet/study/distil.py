@@ -33,7 +33,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agents.fleet.evaluation.costs import run_episodes
-from agents.fleet.learning.agent import ReorderBy, train_on_labels
+from agents.fleet.learning.agent import FleetAgent, ReorderBy, train_on_labels
 from agents.fleet.learning.dispatch import cover_needs
 from agents.fleet.learning.imitation import concat, record
 from agents.fleet.policies.view import FleetView
@@ -107,8 +107,6 @@ def seed_unit(
 def _seed(
     job: Job, atlas: Atlas, fitted: Fitted | None, seed: int, labels: list[dict[str, Any]]
 ) -> dict[str, Any]:
-    from agents.fleet.learning.agent import FleetAgent
-
     t0 = time.perf_counter()
     st = job.training(TRAIN_SEED0 + 100 * seed)
     lay, study, base = job.layout(), job.study, job.base_input()

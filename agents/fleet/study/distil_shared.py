@@ -27,6 +27,12 @@ import numpy as np
 
 from agents.fleet.evaluation.costs import run_episodes
 from agents.fleet.learning.imitation import Demonstrations, concat
+from agents.fleet.learning.marl import (
+    MarlFleetPolicy,
+    MarlTraining,
+    shared_views,
+    standardise_stats,
+)
 from agents.fleet.settings import TRAIN_SEED0
 from agents.fleet.study.build import Fitted, episodes_dict, single_thread
 from agents.fleet.study.distil_job import Job, Timed, demo_of
@@ -36,8 +42,7 @@ from brake_env.model.atlas import Atlas
 def recorded(job: Job, demo: Demonstrations) -> Any:
     """The labels as per-vehicle samples (:class:`~agents.fleet.learning.marl_torch.Recorded`):
     each vehicle's view, with the base rule's duty for it with ``base_input``."""
-    from agents.fleet.learning.marl import shared_views
-    from agents.fleet.learning.marl_torch import Recorded
+    from agents.fleet.learning.marl_torch import Recorded  # loads torch and TorchRL
 
     cfg, lay, base = job.study.fleet, job.layout(), job.base_input()
     views = np.stack([shared_views(o, cfg, lay, base) for o in demo.obs])
@@ -59,7 +64,7 @@ def shared_clone(
     """The shared policy cloned from ``demo`` (TorchRL's networks, masked cross-entropy):
     (its :class:`~agents.fleet.learning.marl.MarlFleetPolicy`, its agreement with the
     labels, the per-vehicle samples)."""
-    from agents.fleet.learning.marl import MarlFleetPolicy, MarlTraining, standardise_stats
+    # Here, not at the top: marl_torch loads torch and TorchRL, parallel loads PettingZoo.
     from agents.fleet.learning.marl_torch import fit_clone, make_networks
     from brake_env.env.fleet.parallel import BrakeWearFleetParallelEnv
 

@@ -35,6 +35,9 @@ import numpy as np
 
 from agents.fleet.evaluation.costs import run_episodes
 from agents.fleet.evaluation.tuning import tune
+from agents.fleet.learning.agent import FleetAgent, train_fleet_agent
+from agents.fleet.policies.reference import ReferenceModel, ReferencePolicy, solve
+from agents.fleet.policies.rules import FleetRuleParams
 from agents.fleet.settings import FED_BACK, TRAIN_SEED0, FleetStudyConfig
 from agents.fleet.study.build import (
     Fitted,
@@ -229,8 +232,6 @@ def _planners(
 def _spares(config: FleetStudyConfig, results: dict[str, Any], best: str | None) -> tuple[int, int]:
     """The reference's reorder rule: the oracle's best heuristic's (s, S) (the rules' default
     when the oracle is not in the study)."""
-    from agents.fleet.policies.rules import FleetRuleParams
-
     if best is None:
         p = FleetRuleParams()
         return p.s, p.S
@@ -291,8 +292,6 @@ def heuristic_unit(
 
 def reference_unit(config: FleetStudyConfig, atlas: Atlas, s: int, S: int) -> dict[str, Any]:
     """The perfect-information reference on the evaluation episodes, spares by (s, S)."""
-    from agents.fleet.policies.reference import ReferenceModel, ReferencePolicy, solve
-
     t0 = time.perf_counter()
     env = rul_env(config, atlas, ORACLE, None)
     model = ReferenceModel.build(config.fleet, atlas)
@@ -348,7 +347,7 @@ def _agent(
     config: FleetStudyConfig, atlas: Atlas, fitted: Fitted | None, run: AgentRun
 ) -> dict[str, Any]:
     predictor, seed, kind, teacher = run.predictor, run.seed, run.kind, run.teacher
-    from agents.fleet.learning.agent import FleetAgent, train_fleet_agent
+    # Here, not at the top: importing agents.fleet.learning.shared loads Stable-Baselines3.
     from agents.fleet.learning.shared import SharedFleetAgent, train_shared_agent
 
     t0 = time.perf_counter()
