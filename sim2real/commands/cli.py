@@ -20,6 +20,7 @@ import time
 from pathlib import Path
 from typing import Any
 
+import pandas as pd
 from tqdm import tqdm
 
 from brake_env.cli.common import (
@@ -32,7 +33,8 @@ from brake_env.model.atlas import Atlas
 from brake_env.output import write_json, write_text
 from sim2real.commands.units import open_store, validate_gap
 from sim2real.diagnosis.config import DiagnosisConfig
-from sim2real.diagnosis.diagnose import diagnose
+from sim2real.diagnosis.diagnose import DiagnosisResult, diagnose
+from sim2real.diagnosis.fix import worth_of_fix
 from sim2real.diagnosis.preconditions import check_log
 from sim2real.diagnosis.rul import rul_scorer
 from sim2real.effects.library import describe_library, registry
@@ -76,10 +78,46 @@ def cmd_diagnose(args: argparse.Namespace) -> dict[str, Any]:
         )
     seconds = time.perf_counter() - t0
     extra = {"seconds": seconds, "real": str(args.real), "library": describe_library()}
-    text = write_outputs(res, out, {**extra, "log_checks": checked.summary()})
+    extra["log_checks"] = checked.summary()
+    text = write_outputs(res, out, extra)  # written before the back-test, which may fail
+    if args.backtest:
+        text = _worth_of_fix(args, log, atlas, res, out, extra)
     print(text)
     print(f"\nwrote {out}/diagnosis.json, report.md, figures/ ({seconds:.1f} s)")
     return res.summary
+
+
+def _worth_of_fix(
+    args: argparse.Namespace,
+    log: pd.DataFrame,
+    atlas: Atlas,
+    res: DiagnosisResult,
+    out: Path,
+    extra: dict[str, Any],
+) -> str:
+    """``--backtest``: what the fix is worth on the log, in ``fix`` of the diagnosis's
+    files (rewritten); the report's text."""
+    t0 = time.perf_counter()
+    winner = res.winner
+    fed = args.backtest_fed_back
+    n_fits = (len(args.backtest_predictors) + len(fed)) * res.summary["log"]["runs"]
+    with tqdm(total=n_fits, desc="backtest", unit="fit", disable=args.quiet, delay=0.5) as bar:
+        fix = worth_of_fix(
+            log,
+            atlas,
+            winner,
+            res.summary["attribution"]["parameter"],
+            predictors=args.backtest_predictors,
+            fed_back=fed,
+            seed=args.seed,
+            cache_dir=args.cache_dir,
+            progress=lambda _: bar.update(),
+        )
+    fix["seconds_total"] = time.perf_counter() - t0
+    if fix["status"] != "done":
+        print(f"diagnose: --backtest: {fix['note']}", file=sys.stderr)
+    res.summary["fix"] = fix
+    return write_outputs(res, out, extra, draw=False)  # the figures are drawn
 
 
 # ---------------------------------------------------------------------- validate-gap

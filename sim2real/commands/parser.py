@@ -15,6 +15,7 @@ from brake_env.cli.common import (
     float_in,
     int_at_least,
     nonempty,
+    predictor_list,
 )
 from sim2real.commands.simulate import add_effect_args
 
@@ -47,6 +48,26 @@ def _add_diagnose(sub: argparse._SubParsersAction[Any]) -> None:
         help="share of runs used to fit candidate parameters",
     )
     d.add_argument("--no-rul", action="store_true", help="skip the twin's RUL error")
+    d.add_argument(
+        "--backtest",
+        action="store_true",
+        help="after the diagnosis, what the fix is worth: back-test the predictors on this"
+        " log (its pads run to failure, one left out at a time), nominal and with the named"
+        " effect fed back at its refined value (NAME+effect); not for a between-events effect",
+    )
+    d.add_argument(
+        "--backtest-predictors",
+        type=predictor_list,
+        default=("twin", "window"),
+        help="with --backtest: the predictors back-tested",
+    )
+    d.add_argument(
+        "--backtest-fed-back",
+        type=predictor_list,
+        default=("twin",),
+        help="with --backtest: the predictors scored a second time with the effect fed back"
+        " (the window model needs no physics)",
+    )
     add_strict_arg(d)
     d.set_defaults(func="sim2real.commands.cli:cmd_diagnose")
 

@@ -119,13 +119,18 @@ def _before_after(r: DiagnosisResult, path: Path) -> Path:
     return _save(fig, path)
 
 
+FIGURES = ("residual_maps.png", "candidate_scores.png", "before_after.png")
+
+
 def figures(r: DiagnosisResult, out: Path) -> list[Path]:
-    """Residual maps, candidate scores and before/after; returns the files written."""
+    """Residual maps, candidate scores and before/after (:data:`FIGURES`); returns the files
+    written."""
     out.mkdir(parents=True, exist_ok=True)
+    maps, scores, before_after = (out / name for name in FIGURES)
     return [
-        _residual_maps(r, out / "residual_maps.png"),
-        _candidate_scores(r, out / "candidate_scores.png"),
-        _before_after(r, out / "before_after.png"),
+        _residual_maps(r, maps),
+        _candidate_scores(r, scores),
+        _before_after(r, before_after),
     ]
 
 

@@ -8,8 +8,9 @@ from typing import Any
 
 from brake_env.output import table, write_json, write_text
 from sim2real.diagnosis.diagnose import DiagnosisResult
+from sim2real.diagnosis.fix import fix_lines
 from sim2real.diagnosis.localise import CHANNEL_NAMES, CHANNELS
-from sim2real.validation.plots import figures
+from sim2real.validation.plots import FIGURES, figures
 from sim2real.validation.validate import short_label
 
 
@@ -31,7 +32,8 @@ def text_report(r: DiagnosisResult) -> str:
     )
     lines += ["", *_localise_lines(s["localise"]), "", *_candidate_lines(a), ""]
     lines += [*_gap_lines(s["quantify"]), *_rul_lines(s["quantify"])]
-    return "\n".join(lines)
+    fix = fix_lines(s.get("fix"))
+    return "\n".join([*lines, *([""] if fix else []), *fix])
 
 
 def _parameter_lines(a: dict[str, Any]) -> list[str]:
@@ -126,14 +128,22 @@ def _rul_lines(q: dict[str, Any]) -> list[str]:
     return lines
 
 
-def write_outputs(r: DiagnosisResult, out: Path, extra: dict[str, Any] | None = None) -> str:
-    """``diagnosis.json``, ``report.md`` and figures under ``out``; returns the text report."""
+def write_outputs(
+    r: DiagnosisResult, out: Path, extra: dict[str, Any] | None = None, draw: bool = True
+) -> str:
+    """``diagnosis.json``, ``report.md`` and figures under ``out``; returns the text report.
+    ``draw=False`` keeps the figures already drawn there (a rewrite with ``fix`` added)."""
     out.mkdir(parents=True, exist_ok=True)
     write_json({**r.summary, **(extra or {})}, out / "diagnosis.json")
     text = text_report(r)
-    figs = figures(r, out / "figures")
+    figs = figures(r, out / "figures") if draw else [out / "figures" / n for n in FIGURES]
+    figs = [p for p in figs if p.is_file()]
     md = ["# Sim-to-real gap diagnosis", "", "```", text, "```", ""]
     md += [f"Warning: {w}\n" for w in (extra or {}).get("log_checks", {}).get("warnings", [])]
+    fix = r.summary.get("fix")
+    if fix and fix["status"] == "done":
+        head, tab = fix_lines(fix, markdown=True)
+        md += ["## What the fix is worth on your log", "", head[0].upper() + head[1:], "", tab, ""]
     md += [f"![{p.stem}](figures/{p.name})" for p in figs]
     write_text("\n".join(md) + "\n", out / "report.md")
     return text

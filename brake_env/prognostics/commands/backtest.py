@@ -18,6 +18,7 @@ import argparse
 import math
 import sys
 import time
+from collections.abc import Sequence
 from functools import partial
 from pathlib import Path
 from typing import Any
@@ -133,21 +134,37 @@ def cmd_backtest(args: argparse.Namespace) -> BacktestResult:
 
 
 def _with_fed_back(args: argparse.Namespace, effects: tuple[str, ...]) -> dict[str, Factory]:
-    """Name -> factory of every predictor asked for (checked by name), plus, with effects,
-    ``NAME+effect`` for each ``--fed-back`` predictor: made on the atlas with the effects."""
+    """The factories of ``--predictors`` and, with effects, of each ``--fed-back`` predictor
+    on the atlas with the effects (the names checked before that atlas is built)."""
+    predictor_factories(args.predictors, args.fed_back)  # unknown names fail in seconds
+    if not effects:
+        return predictor_factories(args.predictors)
+    fed = cached_atlas(effect_spec(args, effects), args.cache_dir)
+    return predictor_factories(args.predictors, args.fed_back, fed)
+
+
+def predictor_factories(
+    names: Sequence[str], fed_back: Sequence[str] = (), fed_atlas: Atlas | None = None
+) -> dict[str, Factory]:
+    """Name -> factory of each predictor in ``names`` (checked by name), plus, with
+    ``fed_atlas``, ``NAME+effect`` for each of ``fed_back``: made on ``fed_atlas`` (the
+    physics with the effect fed back) whatever atlas the back-test passes.
+
+    Raises:
+        ValueError: An unknown name, or the oracle (it reads truth columns).
+    """
     known = predictor_names()
-    bad = [n for n in (*args.predictors, *args.fed_back) if n not in known or n == ORACLE]
+    bad = [n for n in (*names, *fed_back) if n not in known or n == ORACLE]
     if bad:
         valid = [n for n in known if n != ORACLE]
         raise ValueError(
             f"backtest: unknown predictor(s) {bad}; valid are {valid} (the oracle reads truth"
             " columns, which a history does not hold)"
         )
-    out: dict[str, Factory] = {n: partial(make_predictor, n) for n in args.predictors}
-    if effects:
-        fed = cached_atlas(effect_spec(args, effects), args.cache_dir)
-        for n in args.fed_back:
-            out[f"{n}+effect"] = partial(_on_atlas, n, fed)
+    out: dict[str, Factory] = {n: partial(make_predictor, n) for n in names}
+    if fed_atlas is not None:
+        for n in fed_back:
+            out[f"{n}+effect"] = partial(_on_atlas, n, fed_atlas)
     return out
 
 
@@ -174,7 +191,7 @@ def _value(x: Any) -> float | None:
     return None if x is None or (isinstance(x, float) and math.isnan(x)) else float(x)
 
 
-def _cell(stat: dict[str, Any] | None, fmt: str) -> str:
+def interval_cell(stat: dict[str, Any] | None, fmt: str) -> str:
     """``mean [lo, hi]`` (``-`` without a value, no interval from one pad)."""
     if stat is None:
         return "-"
@@ -205,13 +222,13 @@ def summary_table(res: BacktestResult, markdown: bool = False) -> str:
             [
                 name,
                 str(s["failed_pads"]),
-                _cell(s["rmse"], ",.0f"),
-                _cell(s["rmse_all"], ",.0f"),
-                _cell(s["coverage"], ".2f"),
+                interval_cell(s["rmse"], ",.0f"),
+                interval_cell(s["rmse_all"], ",.0f"),
+                interval_cell(s["coverage"], ".2f"),
                 str(s["censored_pads"]),
-                _cell(s["premature"], ".2f"),
+                interval_cell(s["premature"], ".2f"),
                 str(s["measured_pads"]),
-                _cell(s["volume_abs_error"], ".3f"),
+                interval_cell(s["volume_abs_error"], ".3f"),
             ]
         )
     return table(rows, markdown)

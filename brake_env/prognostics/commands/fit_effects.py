@@ -14,6 +14,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -62,6 +63,15 @@ def effect_spec(args: argparse.Namespace, effects: tuple[str, ...]) -> AtlasSpec
     base = Atlas.load(args.atlas).spec if getattr(args, "atlas", None) else None
     if base is None:
         return AtlasSpec(model=BrakeModel.preset(args.preset), effects=effects)
+    return with_effects(base, effects)
+
+
+def with_effects(base: AtlasSpec, effects: Sequence[str]) -> AtlasSpec:
+    """``base`` (its grid and physics) with ``effects`` added to its own, canonical.
+
+    Raises:
+        ValueError: An effect the plug-in does not know or an atlas cannot hold (named).
+    """
     both = canonical_effects([*base.effects, *effects], base.model)
     return dataclasses.replace(base, effects=both)
 
