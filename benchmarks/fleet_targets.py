@@ -41,6 +41,9 @@ MIN_SEEDS = 10
 MAX_TRAIN_S = 15 * 60
 
 
+NO_RATIO = "no ratio: the bound or the cost is not positive"
+
+
 def _iv(d: dict[str, float], digits: int = 3) -> str:
     return f"{d['point']:.{digits}f} [{d['low']:.{digits}f}, {d['high']:.{digits}f}]"
 
@@ -122,15 +125,17 @@ def planner_rows(s: dict[str, Any]) -> list[list[str]]:
     if not b:
         return out
     # the bound is on the net cost: the best policy is the row of least net cost
-    best = min((r for r in s["rows"] if "ratio_to_bound" in r), key=lambda r: r["net_cost"])
-    ratio = best["ratio_to_bound"]
+    best = min((r for r in s["rows"] if "gap_to_bound" in r), key=lambda r: r["net_cost"])
+    ratio = best.get("ratio_to_bound")  # none where the bound or the cost is not positive
     out.append([f"bracket: best policy ({best['predictor']} / {best['policy']}) within"
-                f" {BRACKET:.0%} of the bound ({b['cost']:.3f})", f"ratio {_iv(ratio)}",
-                _verdict(ratio["point"] <= 1 + BRACKET)])  # fmt: skip
+                f" {BRACKET:.0%} of the bound ({b['cost']:.3f})",
+                f"ratio {_iv(ratio)}" if ratio else NO_RATIO,
+                _verdict(ratio["point"] <= 1 + BRACKET) if ratio else "not judged"])  # fmt: skip
     for p, h in s["best_heuristic"].items():
         row = next(r for r in s["rows"] if (r["predictor"], r["policy"]) == (p, h))
         out.append([f"gap to the bound: the {p}'s best tuned heuristic ({h})",
-                    f"difference {_iv(row['gap_to_bound'])}, ratio {_iv(row['ratio_to_bound'])}",
+                    f"difference {_iv(row['gap_to_bound'])}, ratio"
+                    f" {_iv(row['ratio_to_bound']) if 'ratio_to_bound' in row else NO_RATIO}",
                     "reported"])  # fmt: skip
     return out
 

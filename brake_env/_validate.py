@@ -37,6 +37,36 @@ def _value(obj: object, name: str) -> float:
     return float(value)
 
 
+def whole(who: str, name: str, value: Any, lo: int, hi: int | None = None) -> int:
+    """Argument ``name`` of ``who`` as an int in [``lo``, ``hi``]: a Python or numpy
+    integer (never a bool, a float such as 1.5 or NaN); else one ValueError naming both."""
+    if isinstance(value, bool | np.bool_) or not isinstance(value, numbers.Integral):
+        raise ValueError(f"{who}: {name} must be an integer, got {value!r}")
+    n = int(value)
+    if n < lo or (hi is not None and n > hi):
+        span = f">= {lo}" if hi is None else f"in [{lo}, {hi}]"
+        raise ValueError(f"{who}: {name} must be an integer {span}, got {n}")
+    return n
+
+
+def real(
+    who: str, name: str, value: Any, lo: float | None = None, hi: float | None = None,
+    *, infinite: bool = False,
+) -> float:  # fmt: skip
+    """Argument ``name`` of ``who`` as a float, never NaN, finite unless ``infinite``, in
+    [``lo``, ``hi``]; else one ValueError naming both."""
+    if isinstance(value, bool | np.bool_) or not isinstance(value, numbers.Real):
+        raise ValueError(f"{who}: {name} must be a number, got {value!r}")
+    x = float(value)
+    if math.isnan(x) or (not infinite and math.isinf(x)):
+        raise ValueError(f"{who}: {name} must be a finite number, got {value}")
+    if (lo is not None and x < lo) or (hi is not None and x > hi):
+        span = " and ".join(s for s in (f">= {lo}" * (lo is not None),
+                                         f"<= {hi}" * (hi is not None)) if s)  # fmt: skip
+        raise ValueError(f"{who}: {name} must be {span}, got {value}")
+    return x
+
+
 def check_finite(obj: object, *names: str) -> None:
     for name in names:
         if not math.isfinite(_value(obj, name)):

@@ -43,6 +43,11 @@ def acquire(path: Path, command: str) -> Path:
     """Hold ``path``'s lock for this process; refuse when another running process holds
     it, naming that process; take over a lock its dead holder left behind, saying so."""
     path = path.resolve()
+    if path.is_dir() or (path.exists() and not path.is_file()):
+        raise ValueError(
+            f"{path} is a folder (or not a file): the run's lock is a file of that name; move"
+            " it away"
+        )
     if path in _HELD:
         _HELD[path][1] += 1
         return path

@@ -10,11 +10,14 @@ Opening a store, before any long work:
 - refuses a non-empty directory without the store's ``settings.json``, naming it: files the
   project did not write are never adopted, moved or deleted;
 - compares the run's settings with those the store was written with, naming what differs;
-- checks every unit file (whole JSON, its own key, the SHA-256 of its content and of its
-  arrays): a damaged or edited one is moved to ``damaged/`` as ``<name>.<n>.json`` (a number
-  no copy there has: never overwritten, and no command deletes ``damaged/``) and its unit
-  redone, naming the file and the unit on stderr. Only files named for a unit of the run,
-  or for the key they hold, are the store's: a user's file named like a unit is left alone;
+- checks every unit file (whole JSON, its own key, its arrays' SHA-256, and its digest: an
+  HMAC-SHA256 of its content keyed by the hash of the settings it was made under, so a unit
+  copied from a run with other settings, or kept under a hand-edited ``settings.json``, or
+  of the older unkeyed format, is not used): a damaged, edited or foreign one is moved to
+  ``damaged/`` as ``<name>.<n>.json`` (a number no copy there has: never overwritten, and no
+  command deletes ``damaged/``) and its unit redone, naming the file and the unit on
+  stderr. Only files named for a unit of the run, or for the key they hold, are the
+  store's: a user's file named like a unit is left alone;
 - says how many of the run's units are done already ("resuming: K of N ...", stderr).
 """
 
@@ -39,12 +42,20 @@ from brake_env.output import (
     json_safe,
     read_arrays,
     remove_stale_temps,
-    sha256_file,
     write_arrays,
     write_json,
 )
 from brake_env.run_lock import StoreLocked as StoreLocked  # re-exported: raised by open_store
 from brake_env.run_lock import acquire, release
+from brake_env.unit_digest import (
+    canonical_sha256,
+    content_digest,
+    digest_problem,
+    held_key,
+    keyed_digest,
+    unit_problem,
+)
+from brake_env.unit_digest import content_digest as _content_digest  # noqa: F401  # read elsewhere
 
 _SAFE = re.compile(r"[^A-Za-z0-9_.=-]+")
 # Unit files as :meth:`UnitStore._stem` names them: other files are not units.
@@ -89,11 +100,13 @@ def open_store(
 class UnitStore:
     """Finished units' results in ``directory``: per unit a JSON file and, for its arrays,
     an ``.npz`` (read back without pickle, its SHA-256 in the JSON, written first: a unit
-    counts as done once its JSON is there, whole). The JSON carries the SHA-256 of its own
-    content (``sha256``: of the canonical JSON of its key, result and arrays' digest), so a
-    unit edited by hand is redone, not believed. ``settings.json`` records what the run
-    was asked for, and the digest of the code that ran (:func:`code_digest`); a rerun asked
-    for anything else, or by other code, is refused rather than mixed.
+    counts as done once its JSON is there, whole). The JSON carries ``sha256`` (of the
+    canonical JSON of its key, result and arrays' digest), ``settings_sha256`` (the hash of
+    the store's settings, :attr:`settings_hash`) and ``digest``, an HMAC-SHA256 of both keyed
+    by that hash: a unit edited by hand, or made under other settings, is redone, not
+    believed. ``settings.json`` records what the run was asked for, and the digest of the
+    code that ran (:func:`code_digest`); a rerun asked for anything else, or by other code,
+    is refused rather than mixed.
 
     A result is a tree of dicts (string keys), lists, tuples, numpy arrays, strings,
     numbers, booleans and None. The store holds the directory's lock while it is open
@@ -127,6 +140,7 @@ class UnitStore:
         self._release = weakref.finalize(self, release, self._lock)
         try:
             self.settings = self._check_settings(settings)
+            self.settings_hash = canonical_sha256(self.settings)
             self._set_aside_damaged(keys)
         except BaseException:
             self.close()
@@ -156,6 +170,11 @@ class UnitStore:
             raise ValueError(
                 f"{path} is damaged ({e}); delete {self.directory} to start the run afresh"
             ) from None
+        if not isinstance(have, dict):
+            raise ValueError(
+                f"{path} is damaged (a {type(have).__name__}, not the run's settings); delete"
+                f" {self.directory} to start the run afresh"
+            )
         diff = sorted(k for k in {*have, *want} if have.get(k) != want.get(k))
         if diff:
             shown = ", ".join(f"{k}: {have.get(k)!r} -> {want.get(k)!r}" for k in diff)
@@ -170,10 +189,10 @@ class UnitStore:
         copy there has, naming it: its unit is then not done, so the run redoes it."""
         by_stem = {self._stem(k).name: k for k in keys}
         for path in self._unit_files():
-            key, problem = _unit_problem(path, self._stem)
+            key, problem = unit_problem(path, self._stem, self.settings_hash)
             if problem is None:
                 continue
-            key = key or by_stem.get(path.stem) or _held_key(path) or "(unknown)"
+            key = key or by_stem.get(path.stem) or held_key(path) or "(unknown)"
             moved = self._move_aside(path)
             print(
                 f"{self.command}: unit {key}: {path} is damaged ({problem}); moved it to"
@@ -210,7 +229,7 @@ class UnitStore:
         return sorted(p for p in held if p.stem in stems or self._names_itself(p))
 
     def _names_itself(self, path: Path) -> bool:
-        key = _held_key(path)
+        key = held_key(path)
         return key is not None and self._stem(key).name == path.stem
 
     def _stem(self, key: str) -> Path:
@@ -231,20 +250,24 @@ class UnitStore:
         stem = self._stem(key)
         sha = write_arrays(arrays, stem.with_suffix(".npz")) if arrays else None
         doc = {"key": key, "arrays_sha256": sha, "result": tree}
-        write_json({**doc, "sha256": _content_digest(doc)}, stem.with_suffix(".json"))
+        doc = {**doc, "sha256": content_digest(doc), "settings_sha256": self.settings_hash}
+        write_json(
+            {**doc, "digest": keyed_digest(doc, self.settings_hash)}, stem.with_suffix(".json")
+        )
 
     def load(self, key: str) -> Any:
         """A saved unit's result.
 
         Raises:
-            ValueError: The files are not this key's, or its arrays were changed.
+            ValueError: The files are not this key's, its content or arrays were changed, or
+                it was made under other settings.
         """
         stem = self._stem(key)
         doc = json.loads(stem.with_suffix(".json").read_text())
         if doc.get("key") != key:
             raise ValueError(f"{stem}.json holds unit {doc.get('key')!r}, not {key!r}")
-        if doc.get("sha256") != _content_digest(doc):
-            raise ValueError(f"{stem}.json: unit {key} was changed since it was written")
+        if problem := digest_problem(doc, self.settings_hash):
+            raise ValueError(f"{stem}.json: unit {key}: {problem}")
         sha = doc.get("arrays_sha256")
         arrays = read_arrays(stem.with_suffix(".npz"), sha, f"unit {key}") if sha else {}
         return _decode(doc["result"], arrays)
@@ -297,49 +320,6 @@ def _refuse_foreign(directory: Path) -> None:
             " store this project wrote, and its files are left alone; move them away or"
             " write to another --out"
         )
-
-
-def _content_digest(doc: Mapping[str, Any]) -> str:
-    """SHA-256 of a unit file's content (key, arrays' digest, result) as canonical JSON."""
-    body = {k: doc.get(k) for k in ("key", "arrays_sha256", "result")}
-    text = json.dumps(body, sort_keys=True, separators=(",", ":"), allow_nan=False)
-    return hashlib.sha256(text.encode()).hexdigest()
-
-
-def _unit_problem(path: Path, stem_of: Any) -> tuple[str | None, str | None]:
-    """(the unit key the file names, what is wrong with it or None): cheap checks only,
-    whole JSON of the right shape under its own name, arrays of the SHA-256 it gives."""
-    try:
-        doc = json.loads(path.read_text())
-    except (json.JSONDecodeError, UnicodeDecodeError, OSError) as e:
-        return None, f"not whole JSON: {e}"
-    key = doc.get("key") if isinstance(doc, dict) else None
-    if not isinstance(key, str) or "result" not in doc:
-        return None, "not a unit file (no key and result)"
-    if stem_of(key).name != path.stem:
-        return key, f"holds unit {key!r} under another unit's name"
-    if doc.get("sha256") != _content_digest(doc):
-        return key, "its content is not what was written (changed by hand, or damaged)"
-    sha = doc.get("arrays_sha256")
-    npz = path.with_suffix(".npz")
-    if sha is not None and not npz.is_file():
-        return key, f"its arrays {npz.name} are missing"
-    if sha is not None and sha256_file(npz) != sha:
-        return key, f"its arrays {npz.name} are not the file it was written with"
-    return key, None
-
-
-def _held_key(path: Path) -> str | None:
-    """The unit key a file starts with (as :meth:`UnitStore.save` writes it, whole or cut
-    short after the key), None if it starts otherwise."""
-    try:
-        text = path.read_text(errors="replace")
-    except OSError:
-        return None
-    found = re.match(r'\{\s*"key":\s*("(?:[^"\\]|\\.)*")', text)
-    with contextlib.suppress(json.JSONDecodeError):
-        return json.loads(found.group(1)) if found else None
-    return None
 
 
 # ---------------------------------------------------------------------- encoding

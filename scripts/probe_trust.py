@@ -35,7 +35,11 @@ three columns; the script exits 1 otherwise.
 Areas added for issue 44 (:func:`trust_cases`): files a unit store must never move or
 delete (a user's file named like a unit, copies set aside in ``damaged/``), output marks
 (written when a command starts, held while it runs, unreadable ones refused), and hostile
-pad ids in CSV cells and figure labels.
+pad ids in CSV cells and figure labels; and in scripts/probe_inputs.py: units keyed to the
+settings that made them (copied from a ``--seed 1`` or ``--objective net`` study, under an
+edited settings.json), every numeric input of the Lagrangian bound, the rollout planner and
+the price-directed policy, the route RUL's volumes, the fleet commands' parser, ``--atlas``,
+fleet-distil's study ``costs.json``, the reports' ratios, and the library's other edges.
 """
 
 from __future__ import annotations
@@ -89,6 +93,11 @@ from brake_env.prognostics.persist import ARRAYS, HEADER, load_predictor, save_p
 from brake_env.prognostics.protocol import NoPrognostics, Predictor, iter_runs, predict_log
 from brake_env.prognostics.registry import make_predictor
 from twin import DigitalTwin
+
+try:  # the areas of issue 44's second part (a module of their own: this one is long)
+    from scripts.probe_inputs import input_cases
+except ImportError:  # run as a script: scripts/ is on the path, the repository root may not be
+    from probe_inputs import input_cases  # type: ignore[no-redef]
 
 CLEAR = (ValueError, TypeError, RuntimeError, FileNotFoundError)
 OUTCOMES = (
@@ -1655,7 +1664,7 @@ def trust_cases(w: World) -> list[Case]:
 def all_cases(w: World) -> list[Case]:
     return (
         log_cases(w) + gap_cases(w) + model_cases(w) + env_cases(w) + fleet_cases(w)
-        + cli_cases(w) + store_cases(w) + trust_cases(w)
+        + cli_cases(w) + store_cases(w) + trust_cases(w) + input_cases(w, sys.modules[__name__])
     )  # fmt: skip
 
 

@@ -63,7 +63,10 @@ def int_range(lo: int, hi: int) -> Callable[[str], int]:
     return _typed(f"int in [{lo}, {hi}]", parse)
 
 
-SEED = int_at_least(0)  # numpy's SeedSequence takes no negative seed
+# numpy's SeedSequence takes no negative seed, its legacy RandomState (Optuna's sampler)
+# none above 2**32 - 1
+MAX_SEED = 2**32 - 1
+SEED = int_range(0, MAX_SEED)
 
 
 def float_in(
@@ -128,8 +131,10 @@ def name_list(
 
 def out_dir(text: str) -> str:
     """An argparse ``type`` for an output directory: new, or an existing directory (never a
-    file, nor under one). Which command wrote it is checked when the command runs
-    (:func:`brake_env.output.check_output`)."""
+    file, nor under one). When the command starts, :func:`brake_env.run_lock.hold_output`
+    refuses a folder another command's mark names, an unreadable mark, a folder held by a
+    running process or one it cannot write (a read-only folder, a dangling or looping
+    link), and marks it as this command's (its arguments and a lock) before any work."""
     if not text.strip():
         raise argparse.ArgumentTypeError("expected a directory, got ''")
     path = Path(text)
@@ -142,10 +147,32 @@ def out_dir(text: str) -> str:
     return text
 
 
+def read_atlas(path: str | Path, option: str = "--atlas") -> Atlas:
+    """The atlas file ``path`` given by ``option``; one ValueError naming both when it is
+    not an atlas ``brakewear`` wrote (a folder, a text file, an .npz without the atlas's
+    metadata, or one holding pickled objects, which are never loaded)."""
+    p = Path(path)
+    if p.is_dir():
+        raise ValueError(f"{option} {p}: is a folder; give an atlas .npz file")
+    if not p.is_file():
+        raise ValueError(f"{option} {p}: no such file; give an atlas .npz file")
+    try:
+        return Atlas.load(p)
+    except ValueError as e:
+        text = str(e)
+        raise ValueError(
+            f"{option} {p}: not an atlas brakewear wrote ({text.removeprefix(f'{p}: ')})"
+        ) from None
+    except (OSError, KeyError, EOFError, TypeError, AttributeError, UnicodeDecodeError) as e:
+        what = f"no {e}" if isinstance(e, KeyError) else f"{type(e).__name__}: {e}"
+        raise ValueError(f"{option} {p}: not an atlas brakewear wrote ({what})") from None
+
+
 def load_atlas(args: argparse.Namespace, preset: str | None = None) -> Atlas:
-    """The atlas file given by --atlas (its own parameters), else the preset's cached atlas."""
+    """The atlas file given by --atlas (its own parameters; :func:`read_atlas`), else the
+    preset's cached atlas."""
     if getattr(args, "atlas", None) and preset is None:
-        return Atlas.load(args.atlas)
+        return read_atlas(args.atlas)
     spec = AtlasSpec(model=BrakeModel.preset(preset or args.preset))
     with tqdm(desc="atlas layers", unit="layer", disable=args.quiet, delay=0.5) as bar:
         return cached_atlas(spec, args.cache_dir, getattr(args, "rebuild", False), bar.update)

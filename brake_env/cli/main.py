@@ -65,7 +65,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         with held:
             run(args)
-    except (ValueError, FileNotFoundError) as e:
+    except (ValueError, FileNotFoundError, PermissionError) as e:
+        # PermissionError: a read-only --out, cache or input, named by the error
         print(f"brakewear {args.command}: error: {e}", file=sys.stderr)
         return 2
     return 0

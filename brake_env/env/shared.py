@@ -53,6 +53,10 @@ def config_from_kwargs(
     """``base`` (the default config if None) with ``kwargs`` replaced, all validated: an
     unknown keyword is named; a ``nested`` field may come as a dict of its fields."""
     check_keywords(env_id, kwargs, (f.name for f in dataclasses.fields(cls)))  # type: ignore[arg-type]
+    if base is not None and not isinstance(base, cls):
+        fleet = isinstance(base, str) and "Fleet" in env_id  # a fleet's name meant as fleet=
+        hint = " (a shipped fleet's name or a fleet file goes to fleet=)" if fleet else ""
+        raise ValueError(f"{env_id}: config must be a {cls.__name__}, got {base!r}{hint}")
     for name, kind in nested.items():
         if isinstance(kwargs.get(name), dict):
             kwargs[name] = from_dict(kind, kwargs[name])

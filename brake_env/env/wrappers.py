@@ -16,7 +16,13 @@ from numpy.typing import NDArray
 from brake_env.env.brake_wear import BrakeWearEnv
 from brake_env.env.pads import PadLife
 from brake_env.env.shared import require_env
-from brake_env.prognostics.fleet import Fleet, LoopFleet, concat_events, vectorises
+from brake_env.prognostics.fleet import (
+    Fleet,
+    LoopFleet,
+    concat_events,
+    one_per_event,
+    vectorises,
+)
 from brake_env.prognostics.protocol import EventBatch, RULEstimate, RULPredictor
 
 ESTIMATE_FIELDS = ("rul_mean", "rul_lower", "rul_upper")
@@ -95,7 +101,9 @@ class RULObservation(gym.ObservationWrapper[NDArray[np.float32], Any, NDArray[np
             pad: PadLife = base.installed_pad  # type: ignore[attr-defined]
             if pad not in self._lives:
                 self.predictor.reset()
-                self._lives[pad] = self.predictor.update(pad.events())
+                events = pad.events()
+                est = self.predictor.update(events)
+                self._lives[pad] = one_per_event(est, len(events), self.predictor)
             est = self._lives[pad]
             at = base.pad_age - 1  # type: ignore[attr-defined]
         else:
@@ -111,7 +119,7 @@ class RULObservation(gym.ObservationWrapper[NDArray[np.float32], Any, NDArray[np
         if self._fleet is None:
             if fresh:
                 self.predictor.reset()
-            return self.predictor.update(events)
+            return one_per_event(self.predictor.update(events), len(events), self.predictor)
         if fresh:
             self._fleet.reset(0)
         return self._fleet.update(np.zeros(len(events), dtype=np.intp), events)

@@ -124,23 +124,42 @@ class RouteRUL:
         return fields[name]
 
 
+# An estimated volume fraction above a fresh pad's read as fresh up to this (a filter's
+# noise); above it, no pad's.
+VOLUME_MAX = 1.05
+
+
 def volume_estimate(est: RULEstimate, done: F64, base: WearModel) -> F64:
-    """Each pad's volume: the predictor's own where it gives one, else the expected base-mix
-    path's at the share of life it states used, ``done / (done + rul_mean)``.
+    """Each pad's volume: the predictor's own where it gives one (a NaN: none for that pad
+    alone), else the expected base-mix path's at the share of life it states used,
+    ``done / (done + rul_mean)``.
 
     Args:
         est: Estimates, one per pad.
         done: Base-mix events each pad has done [events].
         base: The base mix's clock.
+
+    Raises:
+        ValueError: A volume of another length than the estimates, or one no pad can have
+            (below 0, above :data:`VOLUME_MAX`, infinite), naming the pad and value.
     """
-    if est.volume_frac is not None:
-        v = np.asarray(est.volume_frac, dtype=np.float64)
-        if not np.isnan(v).any():
-            return np.clip(v, base.lower_edges[-1], 1.0)
     done = np.maximum(np.asarray(done, dtype=np.float64), 0.0)
     life = done + np.maximum(est.rul_mean, 0.0)
     share = np.divide(done, life, out=np.zeros_like(life), where=life > 0)
-    return base.volume_at_work(np.clip(share, 0.0, 1.0) * base.life_work)
+    path = base.volume_at_work(np.clip(share, 0.0, 1.0) * base.life_work)
+    if est.volume_frac is None:
+        return path
+    v = np.asarray(est.volume_frac, dtype=np.float64)
+    if v.shape != path.shape:
+        raise ValueError(f"route_rul: {v.size} volumes for {path.size} estimates")
+    bad = np.flatnonzero(~np.isnan(v) & ~((v >= 0) & (v <= VOLUME_MAX)))
+    if bad.size:
+        i = int(bad[0])
+        raise ValueError(
+            f"route_rul: the estimate's volume_frac of pad {i} is {v[i]}: a pad's volume"
+            f" fraction is in [0, 1] (up to {VOLUME_MAX} read as a fresh pad)"
+        )
+    return np.where(np.isnan(v), path, np.clip(v, base.lower_edges[-1], 1.0))
 
 
 def route_rul(est: RULEstimate, done: F64, clocks: DutyClocks) -> RouteRUL:

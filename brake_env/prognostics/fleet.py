@@ -180,6 +180,19 @@ def predict_runs(
     return [select(est, back[a:b]) for a, b in itertools.pairwise(starts)]
 
 
+def one_per_event(est: RULEstimate, n_events: int, predictor: object) -> RULEstimate:
+    """``est``, checked to hold one estimate per event of the batch ``predictor`` was given
+    (a predictor that is no :class:`Predictor` is not checked by one): else one ValueError
+    naming the predictor and both counts."""
+    if len(est) != n_events:
+        name = getattr(predictor, "name", type(predictor).__name__)
+        raise ValueError(
+            f"{name}: update gave {len(est)} estimates for {n_events} events (a predictor"
+            " gives one estimate after each event)"
+        )
+    return est
+
+
 def _one_pad(
     predictor: RULPredictor, ev: EventBatch, batch: int, progress: Callable[[int], object] | None
 ) -> RULEstimate:
@@ -187,7 +200,8 @@ def _one_pad(
     step = batch or len(ev)
     parts = []
     for i in range(0, len(ev), step):
-        parts.append(predictor.update(ev[i : i + step]))
+        part = ev[i : i + step]
+        parts.append(one_per_event(predictor.update(part), len(part), predictor))
         if progress:
             progress(len(parts[-1]))
     return parts[0] if len(parts) == 1 else concat(parts)
@@ -222,7 +236,8 @@ class LoopFleet(Fleet):
         ends = np.append(starts[1:], len(pads))
         parts = []
         for a, b, slot in zip(starts, ends, slots, strict=True):
-            est = self._pads[int(slot)].update(events[int(a) : int(b)])
+            pad = self._pads[int(slot)]
+            est = one_per_event(pad.update(events[int(a) : int(b)]), int(b - a), pad)
             parts.append(select(est, want[a:b]))
         return concat(parts)
 

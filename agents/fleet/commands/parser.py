@@ -56,7 +56,7 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
         help=f"a shipped fleet ({', '.join(shipped_fleets())}; small: 2 vehicles, with the"
         " reference) or a fleet file (TOML; docs/benchmark.md); --size is its old name",
     )  # fmt: skip
-    f.add_argument("--shifts", type=int_at_least(2), default=365, help="an episode")
+    f.add_argument("--shifts", type=int_range(2, 100_000), default=365, help="an episode")
     f.add_argument(
         "--predictors", type=predictor_list, default=predictor_names(),
         help="comma-separated; NAME+effect: NAME made on the physics with the --effect(s)",
@@ -79,7 +79,7 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
         help="what the heuristics are tuned on and the predictors ranked by: the headline"
         " cost or the net cost (less the pad life left at the end)",
     )  # fmt: skip
-    f.add_argument("--eval-episodes", type=int_at_least(2), default=40)
+    f.add_argument("--eval-episodes", type=int_range(2, 100_000), default=40)
     f.add_argument(
         "--episodes-from", type=int_range(0, 2**31), default=0, metavar="N",
         help="the first evaluation episode's seed (0: the episodes of every earlier study)",
@@ -104,8 +104,8 @@ def _add_planner_args(f: argparse.ArgumentParser) -> None:
         "--rollout", type=agent_list, default=(),
         help="predictors given the rollout planner on their best heuristic ('': none)",
     )  # fmt: skip
-    f.add_argument("--rollout-horizon", type=int_at_least(1), default=28, help="shifts")
-    f.add_argument("--rollout-samples", type=int_at_least(1), default=16, help="futures")
+    f.add_argument("--rollout-horizon", type=int_range(1, 100_000), default=28, help="shifts")
+    f.add_argument("--rollout-samples", type=int_range(1, 1_000_000), default=16, help="futures")
     f.add_argument(
         "--rollout-chunk", type=int_at_least(1), default=5, help="evaluation episodes a unit"
     )
@@ -171,14 +171,14 @@ def _register_distil(sub: argparse._SubParsersAction[Any]) -> None:
         "--predictor", choices=predictor_names(), default="twin",
         help="whose RUL the planner and the policy read (the study must have tuned it)",
     )  # fmt: skip
-    f.add_argument("--seeds", type=int_at_least(0), default=10, help="central policy's seeds")
+    f.add_argument("--seeds", type=int_range(0, 10_000), default=10, help="central policy's seeds")
     f.add_argument(
-        "--shared-seeds", type=int_at_least(0), default=0,
+        "--shared-seeds", type=int_range(0, 10_000), default=0,
         help="seeds of the policy shared by the vehicles (TorchRL), from the same labels",
     )  # fmt: skip
-    f.add_argument("--label-episodes", type=int_at_least(1), default=16, help="per round")
+    f.add_argument("--label-episodes", type=int_range(1, 999), default=16, help="per round")
     f.add_argument(
-        "--label-rounds", type=int_at_least(0), default=2,
+        "--label-rounds", type=int_range(0, 999), default=2,
         help="DAgger rounds after the planner's own episodes (a clone drives, it labels)",
     )  # fmt: skip
     f.add_argument(

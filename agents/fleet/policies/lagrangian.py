@@ -60,6 +60,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.stats import norm
 
+from agents.fleet.policies.checks import bound_inputs, program_fits, real, whole
 from brake_env.env.fleet.config import FleetConfig
 from brake_env.env.fleet.routes import HOT as HOT_ROUTE
 from brake_env.env.fleet.routes import MILD as MILD_ROUTE
@@ -116,8 +117,8 @@ class BoundModel:
         service pays its least share of an order (:attr:`order_share`)."""
         if config.regime != "id":
             raise ValueError(f"BoundModel: regime must be 'id', got {config.regime!r}")
-        if units < 1:
-            raise ValueError(f"BoundModel: units must be >= 1, got {units}")
+        units = whole("BoundModel", "units", units, 1)
+        slack_shifts = real("BoundModel", "slack_shifts", slack_shifts, 0.0)
         wear = route_wear_model(atlas, HOT_ROUTE)
         r_min = float(np.min(route_mean(atlas, MILD_ROUTE) / route_mean(atlas, HOT_ROUTE)))
         unit_events = config.events_per_shift / units
@@ -126,6 +127,7 @@ class BoundModel:
         H = config.episode_shifts * units
         if credit:
             H = max(H, int(np.ceil(float(longest) / unit_events)) + units)
+        program_fits(config, H + int(np.ceil(slack_shifts * units)), units)
         # P(ceil(life(K) / u) = j) = P(life_work / (j u) <= K < life_work / ((j - 1) u))
         j = np.arange(H + 1, dtype=np.float64)
         with np.errstate(divide="ignore"):
@@ -285,6 +287,7 @@ def q_values(model: BoundModel, prices: Prices, t: int, v_next: F64) -> F64:
 def solve(model: BoundModel, prices: Prices) -> Program:
     """Backward induction over the episode (terminal value: minus the credit for the pad
     life left, 0 without credit)."""
+    bound_inputs("solve", model, prices)
     T = model.config.episode_shifts
     values = np.zeros((T + 1, model.H + 1, model.D))
     values[T] = -model.credit * np.arange(model.H + 1)[:, None]  # the pad life left
@@ -352,6 +355,7 @@ def bound(model: BoundModel, program: Program, prices: Prices, start: F64) -> fl
     plus the prices' constant (:meth:`Prices.constant`), less the orders' share of the
     initial stock (:attr:`BoundModel.order_share`)."""
     c = model.config
+    bound_inputs("bound", model, prices, start)
     given_back = model.order_share * c.initial_stock
     return float(start @ program.values[0][:, 0] + prices.constant(c) - given_back)
 
@@ -377,7 +381,15 @@ def supergradient(model: BoundModel, occ: Occupation) -> Prices:
 def start_counts(model: BoundModel, states: I64) -> F64:
     """Vehicles at each h (``states``: one row per episode, or one episode's states): the
     mean over episodes."""
-    s = np.atleast_2d(np.asarray(states, dtype=np.int64))
+    raw = np.atleast_2d(np.asarray(states))
+    ok = raw.dtype.kind in "iu" or (raw.dtype.kind == "f" and bool(np.all(raw == np.round(raw))))
+    bad = raw[(raw < 0) | (raw > model.H)] if ok else raw[raw != np.round(raw)]
+    if bad.size or raw.dtype.kind not in "iuf":
+        raise ValueError(
+            f"start_counts: states must be integers in [0, {model.H}], got"
+            f" {bad.ravel()[0] if bad.size else raw.dtype}"
+        )
+    s = raw.astype(np.int64)
     return np.bincount(s.ravel(), minlength=model.H + 1).astype(np.float64) / s.shape[0]
 
 

@@ -22,6 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from agents.fleet.policies.checks import bound_inputs, real, whole
 from agents.fleet.policies.lagrangian import (
     BoundModel,
     Prices,
@@ -85,6 +86,9 @@ def search(
         prices: Where to start (e.g. an earlier search's best); None: zero.
     """
     t0 = time.perf_counter()
+    iterations = whole("search", "iterations", iterations, 0)
+    step = real("search", "step", step, 1e-12)
+    bound_inputs("search", model, prices, start)
     c = model.config
     zero = Prices.zeros(c)
     best_p, best_prog = zero, solve(model, zero)

@@ -112,7 +112,10 @@ class PlanningModel:
         """The model of an env's config and atlas."""
         wear = route_wear_model(atlas, HOT_ROUTE)
         e = config.events_per_shift
-        h_max = int(np.ceil(wear.life(config.k_mean - 5 * config.k_std)[()] / e)) + 1
+        # a slow pad's life (5 sd below the mean K, at least a twentieth of it: a wide
+        # spread the env accepts puts that below 0); longer lives read the last layer's
+        k_slow = max(config.k_mean - 5 * config.k_std, config.k_mean / 20)
+        h_max = int(np.ceil(wear.life(k_slow)[()] / e)) + 1
         h = np.arange(h_max + 1) + 0.5  # the layer half a hot shift into state floor(h)
         work = wear.life_work - h * e * config.k_mean
         layer = wear.layer_at_work(np.clip(work, 0.0, wear.life_work))

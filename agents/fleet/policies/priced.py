@@ -53,6 +53,7 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import NDArray
 
+from agents.fleet.policies.checks import real, same_config, whole
 from agents.fleet.policies.lagrangian import BoundModel, Prices, Program, q_values, solve
 from agents.fleet.policies.rules import reorder
 from brake_env.env.fleet.rules import fill_needs, room_for
@@ -98,8 +99,14 @@ class PricedPolicy:
     ) -> None:  # fmt: skip
         if rank not in RANKS:
             raise ValueError(f"PricedPolicy: rank must be one of {RANKS}, got {rank!r}")
-        if not 0.0 <= damping <= 1.0:
-            raise ValueError(f"PricedPolicy: damping must be in [0, 1], got {damping}")
+        who = "PricedPolicy"
+        damping = real(who, "damping", damping, 0.0, 1.0)
+        s, S = whole(who, "s", s, 0), whole(who, "S", S, 0)
+        if s > S:
+            raise ValueError(f"{who}: s must be an integer <= S, got s={s}, S={S}")
+        must, margin = real(who, "must", must, 0.0), real(who, "margin", margin)
+        shop_limit = real(who, "shop_limit", shop_limit, 0.0)
+        same_config(who, model.config, env.unwrapped.config)
         self.env, self.model, self.s, self.S = env, model, s, S
         self.must, self.margin, self.shop_limit, self.rank = must, margin, shop_limit, rank
         self.damping = damping

@@ -41,6 +41,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agents.fleet.policies import batch_rule
+from agents.fleet.policies.checks import fits_memory, real, whole
 from agents.fleet.policies.planning import FleetState, Futures, PlanningModel, ProgramValue
 from agents.fleet.policies.rules import FleetRule, reorder
 from agents.fleet.policies.view import FleetLayout, FleetView
@@ -51,6 +52,7 @@ from brake_env.env.fleet.spaces import read_observation
 F64 = NDArray[np.float64]
 I64 = NDArray[np.int64]
 Z90 = 1.6448536269514722  # a 90% interval's half-width in standard deviations
+MAX_HORIZON, MAX_SAMPLES = 100_000, 1_000_000  # the env's longest episode; futures
 
 
 class RolloutPolicy:
@@ -72,11 +74,20 @@ class RolloutPolicy:
         seed: int = 0, *, confidence: float = 1.0, service_below: float = 28.0,
         terminal: ProgramValue | None = None,
     ) -> None:  # fmt: skip
-        if horizon < 1 or samples < 1:
-            raise ValueError(f"RolloutPolicy: horizon and samples must be >= 1, got {horizon}"
-                             f" and {samples}")  # fmt: skip
+        who = "RolloutPolicy"
+        horizon = whole(who, "horizon", horizon, 1, MAX_HORIZON)
+        samples = whole(who, "samples", samples, 1, MAX_SAMPLES)
+        seed = whole(who, "seed", seed, 0)
+        confidence = real(who, "confidence", confidence, 0.0)
+        service_below = real(who, "service_below", service_below, 0.0, infinite=True)
         if base.layout.config != model.config:
             raise ValueError("RolloutPolicy: the base rule and the model have different configs")
+        n = model.config.n_vehicles
+        fits_memory(
+            who, 8.0 * samples * n * (horizon + 48 * (3 * n + 1)),
+            f"{samples} futures of {horizon} shifts for {n} vehicles",
+            "use fewer samples or a shorter horizon",
+        )  # fmt: skip
         self.base, self.model = base, model
         self.horizon, self.samples, self.seed = horizon, samples, seed
         self.confidence, self.service_below = confidence, service_below
@@ -103,6 +114,14 @@ class RolloutPolicy:
     def act(self, observation: NDArray[Any]) -> I64:
         """The action (duties, then the order) for one observation."""
         view = FleetView.read(observation, self.layout)
+        for name in ("rul", "rul_lower", "rul_upper"):
+            x = getattr(view, name)
+            if x is not None and not np.isfinite(x).all():
+                v = int(np.flatnonzero(~np.isfinite(x))[0])
+                raise ValueError(
+                    f"{self.name}: the observation's {name.replace('rul', 'RUL')} of vehicle"
+                    f" {v} is {x[v]}: the planner cannot sample a pad's life from it"
+                )
         duty = self.base.act(view)[:-1].copy()
         rng = np.random.default_rng([self.seed, view.shift])
         start = self.start(observation, view, rng)

@@ -7,6 +7,7 @@ import json
 from dataclasses import asdict, dataclass, field
 
 from agents.fleet.settings.training import LABEL_SEED0, FleetTraining
+from brake_env._validate import whole
 
 
 @dataclass(frozen=True)
@@ -50,16 +51,17 @@ class DistilConfig:
     )  # fmt: skip
 
     def __post_init__(self) -> None:
-        for name in ("label_episodes", "label_chunk"):
-            if int(getattr(self, name)) < 1:
-                raise ValueError(f"DistilConfig: {name} must be >= 1, got {getattr(self, name)}")
-        if min(self.seeds, self.shared_seeds) < 0 or self.seeds + self.shared_seeds < 1:
+        who = "DistilConfig"
+        for name, lo, hi in (("label_episodes", 1, 999), ("label_chunk", 1, None),
+                             ("label_rounds", 0, 999), ("seeds", 0, 10_000),
+                             ("shared_seeds", 0, 10_000)):  # fmt: skip
+            object.__setattr__(self, name, whole(who, name, getattr(self, name), lo, hi))
+        if self.seeds + self.shared_seeds < 1:
             raise ValueError(f"DistilConfig: seeds and shared_seeds must be >= 0, one of them"
                              f" >= 1, got {self.seeds} and {self.shared_seeds}")  # fmt: skip
-        if not 0 <= self.label_rounds < 1000 or self.label_episodes >= 1000:
-            raise ValueError(f"DistilConfig: label_rounds must be in [0, 1000) and"
-                             f" label_episodes < 1000, got {self.label_rounds} and"
-                             f" {self.label_episodes}")  # fmt: skip
+        if not isinstance(self.predictor, str) or not isinstance(self.base_input, bool):
+            raise ValueError(f"DistilConfig: predictor must be a name and base_input a bool,"
+                             f" got {self.predictor!r} and {self.base_input!r}")  # fmt: skip
 
     def label_seeds(self, round_: int) -> list[int]:
         return [LABEL_SEED0 + 1000 * round_ + k for k in range(self.label_episodes)]

@@ -137,6 +137,10 @@ def _iv(x: dict[str, float], digits: int = 3) -> str:
     return f"{x['point']:.{digits}f} [{x['low']:.{digits}f}, {x['high']:.{digits}f}]"
 
 
+NO_RATIO = (
+    "n/a: no ratio where a cost is not positive (a net cost less the pad life left can be"
+    " negative, and a ratio of two such costs ranks them backwards); the difference is shown"
+)
 NAMES = {"central": "Central policy", "shared": "Policy shared by the vehicles (TorchRL)"}
 
 
@@ -158,22 +162,37 @@ def distil_report(s: dict[str, Any], markdown: bool = False) -> str:
     return "\n".join(lines).rstrip()
 
 
+def _ratio(x: dict[str, float], *costs: float) -> str:
+    """The ratio's interval, or "n/a" where a cost it divides is not positive."""
+    return _iv(x) if min(costs) > 0 else "n/a"
+
+
 def _policy_report(s: dict[str, Any], p: dict[str, Any], name: str, markdown: bool) -> str:
     c, sp = p["compared"], p["speed"]
     fig = "net cost" if s["objective"] == "net" else "cost"
+    mine = float(np.mean([r["figure"] for r in p["seeds"]]))
+    net = float(np.mean([r["net"] for r in p["seeds"]]))  # the bound's ratio is on the net
     rows = [["policy", f"{fig} / vehicle-shift", "policy minus it (IQM)", "ratio"]]
+    shown = [mine]
     if "base" in c:
         rows.append([f"{s['base']} (tuned)", f"{c['base']['cost']:.3f}",
-                     _iv(c["base"]["difference"]), _iv(c["base"]["ratio"])])  # fmt: skip
+                     _iv(c["base"]["difference"]),
+                     _ratio(c["base"]["ratio"], mine, c["base"]["cost"])])  # fmt: skip
+        shown.append(c["base"]["cost"])
     if "planner" in c:
         rows.append([f"rollout on {s['base']}", f"{c['planner']['cost']:.3f}",
-                     _iv(c["planner"]["difference"]), _iv(c["planner"]["ratio"])])  # fmt: skip
+                     _iv(c["planner"]["difference"]),
+                     _ratio(c["planner"]["ratio"], mine, c["planner"]["cost"])])  # fmt: skip
+        shown.append(c["planner"]["cost"])
     if "bound" in c:
         rows.append(["Lagrangian bound (net)", f"{c['bound']['cost']:.3f}", "",
-                     _iv(c["bound"]["ratio"])])  # fmt: skip
+                     _ratio(c["bound"]["ratio"], net, c["bound"]["cost"])])  # fmt: skip
+        shown += [net, c["bound"]["cost"]]
     iqm = c.get("base", {}).get("iqm")
     lines = [f"{name}, {len(p['seeds'])} seeds" + (f": IQM {_iv(iqm)}" if iqm else ""),
              table(rows, markdown), ""]  # fmt: skip
+    if min(shown) <= 0:
+        lines += [NO_RATIO, ""]
     if "gap_closed" in c:
         closed = c["gap_closed"]
         same = "The planner and the heuristic cost the same here: no gap to close"

@@ -131,7 +131,9 @@ def report(summary: dict[str, Any], markdown: bool = False) -> str:
                  + ", ".join(f"{p} {rk['cost'][p]:.2f}" for p in rk["order"]))  # fmt: skip
     if rk["head_minus"]:  # one predictor alone has nothing to be compared with
         rows = [["predictor", f"{rk['head']} minus it", f"{rk['head']} / it"]]
-        rows += [[p, _ivs(v["difference"]), _ivs(v["ratio"])] for p, v in rk["head_minus"].items()]
+        head = rk["cost"][rk["head"]]
+        rows += [[p, _ivs(v["difference"]), _ratio(v["ratio"], head, rk["cost"][p])]
+                 for p, v in rk["head_minus"].items()]  # fmt: skip
         lines.append(table(rows, markdown))
     for a in summary["agents"].values():
         lines.append(
@@ -139,7 +141,8 @@ def report(summary: dict[str, Any], markdown: bool = False) -> str:
             f" (cloned from: {a['teacher']}): IQM {_ivs(a['iqm'])}; minus the tuned"
             f" {a['heuristic']}"
             f" ({a['heuristic_cost']:.2f}): {_ivs(a['minus_heuristic'])}, ratio"
-            f" {_ivs(a['ratio_to_heuristic'])}; {a['seeds_beating_heuristic']} of {a['seeds']}"
+            f" {_ratio(a['ratio_to_heuristic'], a['iqm']['point'], a['heuristic_cost'])};"
+            f" {a['seeds_beating_heuristic']} of {a['seeds']}"
             f" seeds below it; training {min(a['train_seconds']):.0f}-"
             f"{max(a['train_seconds']):.0f} s a seed{_agreement(a)}"
         )
@@ -162,7 +165,8 @@ def _planner_lines(summary: dict[str, Any]) -> list[str]:
         lines.append(
             f"Rollout on the {p}'s {r['base']}: {r['cost']:.3f} against its base's"
             f" {r['base_cost']:.3f}, difference {_ivs(r['minus_base'])}, ratio"
-            f" {_ivs(r['ratio_to_base'])}; {r['seconds_per_shift']:.2f} s a decision"
+            f" {_ratio(r['ratio_to_base'], r['cost'], r['base_cost'])};"
+            f" {r['seconds_per_shift']:.2f} s a decision"
             f" ({r['seconds'] / 60:.1f} min of evaluation in all)"
         )
     return lines
@@ -201,6 +205,12 @@ def _ivs(d: dict[str, float] | None, digits: int = 3) -> str:
     if not d:
         return ""
     return f"{d['point']:.{digits}f} [{d['low']:.{digits}f}, {d['high']:.{digits}f}]"
+
+
+def _ratio(d: dict[str, float] | None, *figures: float) -> str:
+    """A ratio's interval, or why none is printed: a figure it divides is not positive (a
+    net cost can be negative; a ratio of such figures ranks them backwards)."""
+    return _ivs(d) if min(figures) > 0 else "n/a (a cost not positive: see the difference)"
 
 
 __all__ = ["REFERENCE", "report", "run_fleet_study"]

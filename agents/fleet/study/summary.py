@@ -132,16 +132,24 @@ def _planners(
     b = units[config.bound_key()]
     rows.append(_row(ORACLE, PRICED, episodes_of(b["priced"]), ref, None))
     bound = np.asarray(b["bound"], dtype=float)
-    for r in rows:  # the bound is on the cost net of the pad life left (EpisodeCost.net)
-        x = np.asarray(r["episodes"]["net"])
-        r["gap_to_bound"] = _iv(paired_interval(x, bound, "difference"))
-        r["ratio_to_bound"] = _iv(paired_interval(x, bound, "ratio"))
+    to_bound(rows, bound)
     out["bound"] = {
         "policy": BOUND, "cost": float(bound.mean()), "episodes": bound.tolist(),
         "zero_prices": float(b["zero_prices_bound"]), "iterations": int(b["iterations"]),
         "seconds": dict(b["seconds"]),
     }  # fmt: skip
     return out
+
+
+def to_bound(rows: list[dict[str, Any]], bound: F64) -> None:
+    """Each row's paired gap to the bound per episode (on the cost net of the pad life left,
+    :attr:`EpisodeCost.net`), and its ratio where both figures are positive (none to a
+    figure that is not: a ratio of negative costs ranks them backwards)."""
+    for r in rows:
+        x = np.asarray(r["episodes"]["net"], dtype=float)
+        r["gap_to_bound"] = _iv(paired_interval(x, bound, "difference"))
+        if x.mean() > 0 and bound.mean() > 0:
+            r["ratio_to_bound"] = _iv(paired_interval(x, bound, "ratio"))
 
 
 def _config_dict(config: FleetStudyConfig) -> dict[str, Any]:

@@ -42,6 +42,7 @@ from brake_env.cli.common import (
     int_at_least,
     make_runner,
     out_dir,
+    read_atlas,
 )
 from brake_env.csv_safe import write_csv
 from brake_env.data.datasets import find_logs
@@ -299,7 +300,7 @@ def _predict_units(
 def _atlas_loader(header: dict[str, Any], args: argparse.Namespace) -> Callable[[], Atlas]:
     """A function giving the model's atlas, after checking its hash against the header."""
     if args.atlas:
-        atlas = Atlas.load(args.atlas)
+        atlas = read_atlas(args.atlas)
         check_atlas(header, atlas.content_hash, args.model)
         return lambda: atlas
     check_atlas(
