@@ -175,3 +175,19 @@ def test_no_ratio_to_a_bound_that_is_not_positive() -> None:
     shipped["bound"]["episodes"] = [0.5, 1.0, 1.5]
     r = compare([1, 2, 3], [1.0, 2.0, 3.0], shipped)["ratio_to_bound"]
     assert r["mean"] == pytest.approx(2.0) and r["low"] <= 2.0 <= r["high"]
+
+
+def test_a_maskable_ppo_is_scored_with_the_env_s_masks(tiny, atlas, made) -> None:
+    """sb3-contrib's MaskablePPO applies masks only when given ``action_masks=`` (handed to
+    ``run_episodes`` bare, an untrained one broke the mask); through the factory it keeps
+    to the mask on every shift of the scored episodes."""
+    sb3c = pytest.importorskip("sb3_contrib")
+    from sb3_contrib.common.wrappers import ActionMasker
+
+    def factory(env):
+        masked = ActionMasker(env, lambda e: e.unwrapped.action_masks())
+        return sb3c.MaskablePPO("MlpPolicy", masked, n_steps=32, batch_size=32, seed=0).learn(32)
+
+    got = score(read_suite(tiny), factory, atlas, baselines=made, episodes=2)
+    assert got["episodes"]["seed"] == [900_000, 900_001]
+    assert np.isfinite(got["episodes"]["net"]).all()
