@@ -9,6 +9,7 @@ from typing import Any
 
 from tqdm import tqdm
 
+from agents.fleet.policies.lagrangian import BoundModel
 from agents.fleet.settings import FleetStudyConfig, FleetTraining
 from agents.fleet.study.build import truth_atlas
 from agents.fleet.study.run import report, run_fleet_study
@@ -24,6 +25,8 @@ def cmd_fleet_study(args: argparse.Namespace) -> dict[str, Any]:
     config = config_from_args(args)
     atlas = load_atlas(args)
     truth = truth_atlas(config, atlas, args.cache_dir)  # with --effect: built on a cache miss
+    if config.bound_iterations:  # a bound too large for memory, refused before any unit runs
+        BoundModel.build(config.fleet, truth, credit=True)
     with make_runner(args) as runner:
         return study_and_report(config, atlas, Path(args.out), runner, quiet=args.quiet,
                                 truth=truth)  # fmt: skip

@@ -39,3 +39,16 @@ def test_the_largest_seed_is_taken():
     from brake_env.cli.common import MAX_SEED, SEED
 
     assert SEED(str(MAX_SEED)) == 2**32 - 1
+
+
+def test_a_bound_too_large_for_memory_is_refused_before_out_is_made(tmp_path, capsys, atlas):
+    """The parser cannot know a bound's size (it needs the atlas's pad lives); the command
+    builds the bound's model first, which refuses it before any unit runs, and the folder
+    made for the command goes again (nothing was written)."""
+    path = tmp_path / "atlas.npz"
+    atlas.save(path)
+    out = tmp_path / "out"
+    code = main(["fleet-study", "--fleet", "default", "--shifts", "5000", "--bound-iterations",
+                 "2", "--atlas", str(path), "--quiet", "--out", str(out)])  # fmt: skip
+    assert code == 2
+    assert "would allocate" in capsys.readouterr().err and not out.exists()
