@@ -56,7 +56,7 @@ def suite_section(name: str, description: str, shipped: dict[str, Any]) -> str:
         lines.append(f"| bound | Lagrangian ({bound['iterations']} price vectors) |"
                      f" {_mean_iv(np.asarray(bound['episodes']))} | | 1 |")  # fmt: skip
     n, secs = len(shipped["seeds"]), shipped.get("seconds")
-    made = f" Made in {secs / 3600:.2f} h of wall time on 2 cores" if secs else ""
+    made = f" Made in {secs / 3600:.2f} h of wall time (2 cores, shared)" if secs else ""
     lines += ["", f"{n} test episodes from seed {shipped['seeds'][0]}; net cost per"
               f" vehicle-shift in USD.{made}: `{shipped['command']}`"]  # fmt: skip
     if "twin-rule" in b and "window-rule" in b:

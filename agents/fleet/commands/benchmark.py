@@ -138,10 +138,15 @@ def cmd_fleet_baselines(args: argparse.Namespace) -> dict[str, Any]:
     from brake_env.cli.common import make_runner
 
     suite = read_suite(args.suite)
+    bound = args.bound_iterations
+    if bound and suite.fleet_file.config.regime != "id":
+        print(f"suite {suite.name}: no bound (the Lagrangian bound models the 'id' wear regime"
+              f" only; this fleet's is {suite.fleet_file.config.regime!r})")  # fmt: skip
+        bound = 0
     config = suite.study_config(
         "test", predictors=tuple(p for p in args.predictors.split(",") if p),
         heuristics=("best combination",), trials_best=args.trials_best,
-        bound_iterations=args.bound_iterations,
+        bound_iterations=bound,
         rollout_predictors=tuple(p for p in args.rollout.split(",") if p),
     )  # fmt: skip
     out = Path(args.out)

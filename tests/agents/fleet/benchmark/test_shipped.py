@@ -1,0 +1,47 @@
+"""The shipped baselines (issue 41): each suite's file is of the suite as it stands (its
+digest), on its sealed test split, and a shipped rule re-scored on two test episodes gives
+its shipped figures exactly; the leaderboard is the one the shipped files write."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from agents.fleet.benchmark.baselines import read_baselines
+from agents.fleet.benchmark.page import BEGIN, END, leaderboard
+from agents.fleet.benchmark.score import score
+from agents.fleet.benchmark.suite import read_suite
+
+SHIPPED = ("small", "default")
+PAGE = Path(__file__).parents[4] / "docs" / "benchmark.md"
+
+
+@pytest.mark.parametrize("name", SHIPPED)
+def test_each_shipped_file_is_of_its_suite_s_test_split(name) -> None:
+    suite = read_suite(name)
+    shipped = read_baselines(suite)  # refuses a file of another digest
+    assert shipped is not None and shipped["seeds"] == suite.seeds("test")
+    assert {"oracle-rule", "twin-rule", "window-rule"} <= set(shipped["baselines"])
+    for b in shipped["baselines"].values():
+        assert b["episodes"]["seed"] == shipped["seeds"]
+    if suite.fleet_file.config.regime == "id":  # the bound models the id regime only
+        assert len(shipped["bound"]["episodes"]) == len(shipped["seeds"])
+    else:
+        assert "bound" not in shipped
+
+
+def test_a_shipped_rule_re_scored_on_two_test_episodes_gives_its_figures(atlas) -> None:
+    suite = read_suite("small")
+    shipped = read_baselines(suite)
+    got = score(suite, "baseline:oracle-rule", atlas, episodes=2)
+    want = shipped["baselines"]["oracle-rule"]["episodes"]
+    assert got["episodes"]["seed"] == want["seed"][:2]
+    assert got["episodes"]["net"] == want["net"][:2]
+    assert got["episodes"]["cost"] == want["cost"][:2]
+
+
+def test_the_leaderboard_on_the_page_is_the_shipped_files() -> None:
+    text = PAGE.read_text()
+    between = text.split(BEGIN, 1)[1].split(END, 1)[0]
+    assert between.strip() == leaderboard().strip(), "run: brakewear fleet-leaderboard"
