@@ -13,7 +13,7 @@ from agents.fleet.benchmark.page import BEGIN, END, leaderboard
 from agents.fleet.benchmark.score import score
 from agents.fleet.benchmark.suite import read_suite
 
-SHIPPED = ("small", "default")
+SHIPPED = ("small", "default", "default-mixed")
 PAGE = Path(__file__).parents[4] / "docs" / "benchmark.md"
 
 
