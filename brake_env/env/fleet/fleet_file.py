@@ -15,6 +15,7 @@ and the key.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import hashlib
 import json
 import os
@@ -91,11 +92,7 @@ def read_fleet(fleet: str | os.PathLike[str] | FleetFile, **overrides: Any) -> F
         base = fleet
     else:
         path = fleet_path(fleet)
-        try:
-            data = tomllib.loads(path.read_text(encoding="utf-8"))
-        except (tomllib.TOMLDecodeError, UnicodeDecodeError) as e:
-            raise ValueError(f"fleet file {path}: not TOML ({e})") from None
-        base = _from_dict(data, path)
+        base = _read_file(path, path.stat().st_mtime_ns)
     if not overrides:
         return base
     try:
@@ -103,6 +100,17 @@ def read_fleet(fleet: str | os.PathLike[str] | FleetFile, **overrides: Any) -> F
     except (TypeError, ValueError) as e:
         raise ValueError(f"fleet {base.name!r} ({base.source}): {e}") from None
     return dataclasses.replace(base, config=config)
+
+
+@functools.lru_cache(maxsize=64)
+def _read_file(path: Path, mtime_ns: int) -> FleetFile:
+    """A fleet file parsed and validated, once per version of the file (a study's config
+    reads its fleet at every ``config.fleet``; the key's mtime sees an edit)."""
+    try:
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as e:
+        raise ValueError(f"fleet file {path}: not TOML ({e})") from None
+    return _from_dict(data, path)
 
 
 def _from_dict(data: dict[str, Any], path: Path) -> FleetFile:
