@@ -18,6 +18,7 @@ from brake_env.env.fleet.pads import FleetPads, ShiftEvents
 from brake_env.env.fleet.render import FleetFrame, ansi
 from brake_env.env.fleet.routes import UNIFORM, route_indices, route_wear_model
 from brake_env.env.fleet.shop import Plan, Workshop
+from brake_env.env.fleet.state import FleetState, read_state, restore
 from brake_env.env.shared import check_render_mode, env_atlas, make_registered
 from brake_env.model.atlas import Atlas
 
@@ -96,7 +97,8 @@ class BrakeWearFleetEnv(gym.Env[NDArray[np.float32], NDArray[np.int64]]):
     Every vehicle has a pad that has already braked a uniform fraction in
     ``[0, initial_age_max)`` of its expected life on the envelope's uniform mix, at the
     volume the expected wear path gives (its streams start there); ``initial_stock``
-    spares, none on order, nobody down; shift 0.
+    spares, none on order, nobody down; shift 0. ``reset(options={"state": s})`` starts
+    from a :class:`~brake_env.env.fleet.state.FleetState` instead (:meth:`state` reads one).
 
     ## Episode End
 
@@ -160,6 +162,7 @@ class BrakeWearFleetEnv(gym.Env[NDArray[np.float32], NDArray[np.int64]]):
         self.pads: FleetPads | None = None
         self._last_info: dict[str, Any] = {}
         self._events: ShiftEvents | None = None
+        self._start_summary: NDArray[np.float64] | None = None
         self._frame = FleetFrame(self) if render_mode == "rgb_array" else None
 
     # ------------------------------------------------------------------ episode
@@ -182,7 +185,10 @@ class BrakeWearFleetEnv(gym.Env[NDArray[np.float32], NDArray[np.int64]]):
         self._age_first_pads()
         self.shop = Workshop(c)
         self.shift = 0
-        self._events = None
+        self._events, self._start_summary = None, None
+        if options is not None and "state" in options:
+            restore(self, options["state"])
+            self._start_summary = options["state"].summary
         self._last_info = self._info(
             dict.fromkeys(COST_TERMS, 0.0), {}, None, Plan.idle(c.n_vehicles)
         )
@@ -272,6 +278,10 @@ class BrakeWearFleetEnv(gym.Env[NDArray[np.float32], NDArray[np.int64]]):
             "regime": p.label.copy(),
         }
 
+    def state(self) -> FleetState:
+        """The fleet now, with the episode's streams (``reset(options={"state": ...})``)."""
+        return read_state(self)
+
     def shift_events(self) -> ShiftEvents | None:
         """The last shift's events of every vehicle (None after reset)."""
         return self._events
@@ -309,23 +319,14 @@ class BrakeWearFleetEnv(gym.Env[NDArray[np.float32], NDArray[np.int64]]):
         on_hot, on_mild = int((plan.route == 0).sum()), int((plan.route == 1).sum())
         short_hot, short_mild = rules.shortfall(self.config, on_hot, on_mild, window)
         return {
-            "window_fits": int(plan.window_fit.sum()),
-            "shop_fits": int(plan.shop_fit.sum()),
-            "visits": int(plan.visit.sum()),
-            "corrective_fits": int(fitted.sum()),
-            "failures": int(ev.failed.sum()),
-            "breakdowns": int(broke.sum()),
-            "deferred": len(plan.deferred),
-            "refused": len(plan.refused),
-            "ordered": quantity,
-            "arrived": arrived,
-            "on_hot": on_hot,
-            "on_mild": on_mild,
-            "shortfall": short_hot,
-            "mild_shortfall": short_mild,
-            "stock": self.shop.stock,
-            "events": int(ev.n_done.sum()),
-        }
+            "window_fits": int(plan.window_fit.sum()), "shop_fits": int(plan.shop_fit.sum()),
+            "visits": int(plan.visit.sum()), "corrective_fits": int(fitted.sum()),
+            "failures": int(ev.failed.sum()), "breakdowns": int(broke.sum()),
+            "deferred": len(plan.deferred), "refused": len(plan.refused),
+            "ordered": quantity, "arrived": arrived, "on_hot": on_hot, "on_mild": on_mild,
+            "shortfall": short_hot, "mild_shortfall": short_mild,
+            "stock": self.shop.stock, "events": int(ev.n_done.sum()),
+        }  # fmt: skip
 
     def _costs(self, n: dict[str, int]) -> dict[str, float]:
         w = self.config.costs
@@ -373,6 +374,8 @@ class BrakeWearFleetEnv(gym.Env[NDArray[np.float32], NDArray[np.int64]]):
     def _observation(self) -> NDArray[np.float32]:
         assert self.pads is not None
         summary = fs.shift_summary(self._events, self.config.n_vehicles)
+        if self._events is None and self._start_summary is not None:
+            summary = self._start_summary
         return fs.fleet_observation(
             self.config, summary, self.pads.pos, self.shop, self.shift, self._box
         )
