@@ -54,7 +54,7 @@ def p_fail_before(lower: F64, upper: F64, events: ArrayLike, level: float = LEVE
     Args:
         lower, upper: Each pad's interval bounds, (pads,); bounds under one event are read
             as one; an interval of no width gives a step at the bound.
-        events: (pads,) or (pads, horizons), >= 0; 0 gives 0.
+        events: (pads,) or (pads, horizons), >= 0; 0 gives 0, NaN (unknown) gives NaN.
         level: The interval's coverage, in (0, 1).
     """
     if not 0.0 < level < 1.0:
@@ -62,8 +62,8 @@ def p_fail_before(lower: F64, upper: F64, events: ArrayLike, level: float = LEVE
     lo = np.maximum(np.asarray(lower, dtype=np.float64), MIN_EVENTS)
     hi = np.maximum(np.asarray(upper, dtype=np.float64), lo)
     e = np.asarray(events, dtype=np.float64)
-    if np.isnan(e).any() or (e < 0).any():
-        raise ValueError("p_fail_before: events must be >= 0 and not NaN")
+    if (e < 0).any():
+        raise ValueError("p_fail_before: events must be >= 0")
     if e.ndim == 2:
         lo, hi = lo[:, None], hi[:, None]
     mu = 0.5 * (np.log(lo) + np.log(hi))
@@ -71,7 +71,8 @@ def p_fail_before(lower: F64, upper: F64, events: ArrayLike, level: float = LEVE
     with np.errstate(divide="ignore", invalid="ignore"):
         z = (np.log(e) - mu) / np.where(sigma > 0, sigma, 1.0)
     step = (e >= np.exp(mu)).astype(np.float64)
-    return np.where(e > 0, np.where(sigma > 0, norm.cdf(z), step), 0.0)
+    p = np.where(e > 0, np.where(sigma > 0, norm.cdf(z), step), 0.0)
+    return np.where(np.isnan(e), np.nan, p)
 
 
 def horizon_label(h: float) -> str:
@@ -93,13 +94,13 @@ def check_horizons(horizons: Sequence[float]) -> tuple[float, ...]:
 
 
 def _per_pad(x: float | ArrayLike | None, n: int, name: str) -> F64:
-    """One number, or one per pad, as (n,): > 0 (NaN allowed only for ``as_of``)."""
+    """One number, or one per pad, as (n,): > 0 or NaN (unknown), any for ``as_of``."""
     a = np.asarray(np.nan if x is None else x, dtype=np.float64)
     if a.ndim > 1 or (a.ndim == 1 and a.size != n):
         raise ValueError(f"planner_units: {a.size} values of {name} for {n} pads")
     a = np.broadcast_to(a, (n,)).copy()
     if name != "as_of":
-        bad = np.flatnonzero(~(np.isfinite(a) & (a > 0)))
+        bad = np.flatnonzero(~np.isnan(a) & ~(np.isfinite(a) & (a > 0)))
         if bad.size:
             i = int(bad[0])
             raise ValueError(f"planner_units: {name} of pad {i} is {a[i]:g}; it must be > 0")
@@ -144,7 +145,8 @@ def planner_units(
         estimates: ``rul_mean`` and ``events_since_install`` (base-mix events), with
             ``rul_lower``/``rul_upper`` and ``volume_frac`` where the predictor gives them.
         clocks: The routes' clocks (``duty_clocks(atlas, PLANNER_ROUTES)``).
-        events_per_shift: One number, or one per pad (:func:`events_per_shift_from_times`).
+        events_per_shift: One number, or one per pad (:func:`events_per_shift_from_times`);
+            NaN: unknown (that pad's shifts, calendar time and probabilities are NaN).
         horizons: Shifts ahead, each > 0.
         as_of: Each pad's last event's time [s, the log's clock] (NaN or None: unknown).
         shift_hours: A shift's length, for the calendar time.
@@ -159,6 +161,8 @@ def planner_units(
     n = len(estimates)
     per = _per_pad(events_per_shift, n, "events_per_shift")
     hours = float(_per_pad(shift_hours, 1, "shift_hours")[0])
+    if np.isnan(hours):
+        raise ValueError("planner_units: shift_hours is NaN; it must be > 0")
     stamps = _per_pad(as_of, n, "as_of")
     hs = check_horizons(horizons)
     est, done = _estimate(estimates)
