@@ -5,8 +5,10 @@ fleet=FILE)``, the PettingZoo version and every fleet command's ``--fleet``.
 A file's top level holds ``FleetConfig``'s plain fields (``n_vehicles = 16``, ``regime =
 "mixed"``), a ``[costs]`` table :class:`~brake_env.env.fleet.config.FleetCosts`'s fields and
 ``currency`` (the name of the unit every cost is in), a ``[noise]`` table the sensor
-noise's, and optionally ``name`` and ``description``. A key the file leaves out keeps the
-default, as with ``gym.make``'s keywords. The shipped fleets (``small``, ``default``,
+noise's, and optionally ``name``, ``description`` and ``shifts_per_year`` (the shifts a
+vehicle could work in a year, which turns a cost per vehicle-shift into one per year; not
+a ``FleetConfig`` field: it prices results and changes no episode). A key the file leaves
+out keeps the default, as with ``gym.make``'s keywords. The shipped fleets (``small``, ``default``,
 ``default-mixed``, ``large``; :func:`shipped_fleets`) are files in ``fleets/`` beside this
 module, and a name is read as one of them. A bad file gets one ValueError naming the file
 and the key.
@@ -28,6 +30,9 @@ from brake_env.env.fleet.config import FleetConfig
 
 FLEETS_DIR = Path(__file__).with_name("fleets")
 DEFAULT_CURRENCY = "USD"
+# 2 x 12 h shifts a day, every day: FleetConfig.episode_shifts' "730: a year on a 2 x 12 h
+# roster" (its holding cost is priced over the same 730).
+DEFAULT_SHIFTS_PER_YEAR = 730
 _META = ("name", "description")
 
 
@@ -41,6 +46,8 @@ class FleetFile:
         config: The fleet.
         currency: The unit every cost is in.
         description: The file's ``description`` (may be empty).
+        shifts_per_year: Shifts a vehicle could work in a year (windows included): a
+            cost per vehicle-shift x vehicles x this is the fleet's cost a year.
     """
 
     name: str
@@ -48,11 +55,14 @@ class FleetFile:
     config: FleetConfig
     currency: str = DEFAULT_CURRENCY
     description: str = ""
+    shifts_per_year: int = DEFAULT_SHIFTS_PER_YEAR
 
     @property
     def digest(self) -> str:
         """A digest of what the file describes (the config and the currency), not of its
-        bytes: two files of the same fleet, comments and order aside, share it."""
+        bytes: two files of the same fleet, comments and order aside, share it.
+        ``shifts_per_year`` is left out: it only scales the money a study reports (from its
+        per-vehicle-shift figures), so the shipped suites' digests stay as they were."""
         payload = {"config": dataclasses.asdict(self.config), "currency": self.currency}
         text = json.dumps(payload, sort_keys=True, default=str)
         return hashlib.sha256(text.encode()).hexdigest()[:16]
@@ -131,12 +141,21 @@ def _from_dict(data: dict[str, Any], path: Path) -> FleetFile:
         data["costs"] = costs
     if "noise" in data and not isinstance(data["noise"], dict):
         raise ValueError(f"fleet file {path}: noise must be a table ([noise])")
+    name = meta.get("name", path.stem)
+    year = _shifts_per_year(data.pop("shifts_per_year", DEFAULT_SHIFTS_PER_YEAR), path)
     try:
         config = FleetConfig.from_kwargs(None, **data)
     except (TypeError, ValueError) as e:
         raise ValueError(f"fleet file {path}: {e}") from None
-    name = meta.get("name", path.stem)
-    return FleetFile(name, str(path), config, currency, meta.get("description", ""))
+    return FleetFile(name, str(path), config, currency, meta.get("description", ""), year)
+
+
+def _shifts_per_year(v: Any, path: Path) -> int:
+    """The file's ``shifts_per_year``: a whole number of shifts, 1 to 366 x 24 (hourly)."""
+    if isinstance(v, bool) or not isinstance(v, int) or not 1 <= v <= 366 * 24:
+        raise ValueError(f"fleet file {path}: shifts_per_year must be a whole number of shifts"
+                         f" in [1, 8784], got {v!r}")  # fmt: skip
+    return v
 
 
 def fleet_toml(fleet: FleetFile) -> str:
@@ -147,6 +166,7 @@ def fleet_toml(fleet: FleetFile) -> str:
     if fleet.description:
         lines.append(f"description = {json.dumps(fleet.description)}")
     lines += [f"{k} = {_toml_value(v)}" for k, v in d.items()]
+    lines.append(f"shifts_per_year = {fleet.shifts_per_year}")
     lines += ["", "[costs]", f"currency = {json.dumps(fleet.currency)}"]
     lines += [f"{k} = {_toml_value(v)}" for k, v in costs.items()]
     lines += ["", "[noise]", *(f"{k} = {_toml_value(v)}" for k, v in noise.items())]

@@ -55,6 +55,9 @@ def test_a_fleet_written_is_read_back_equal_and_its_digest_is_its_content(tmp_pa
         ("costs = 3\n", "costs must be a table"),
         ("regime = 'weird'\n", "regime"),
         ("n_vehicles = [\n", "not TOML"),
+        ("shifts_per_year = 0\n", "shifts_per_year"),
+        ("shifts_per_year = 730.5\n", "shifts_per_year"),
+        ("shifts_per_year = true\n", "shifts_per_year"),
     ],
 )
 def test_a_bad_fleet_file_is_refused_naming_the_file_and_the_key(tmp_path, text, named) -> None:
@@ -63,6 +66,23 @@ def test_a_bad_fleet_file_is_refused_naming_the_file_and_the_key(tmp_path, text,
     with pytest.raises(ValueError, match=re.escape(named)) as e:
         read_fleet(path)
     assert str(path) in str(e.value)
+
+
+def test_shifts_a_year_are_read_written_and_no_part_of_the_fleet_s_digest(tmp_path) -> None:
+    """730 by default (2 x 12 h shifts a day) and in every shipped file; a file's own value
+    read and written back; the digest (the suites' and the units' key) ignores it: it only
+    prices a study's figures, no episode changes."""
+    assert {read_fleet(n).shifts_per_year for n in shipped_fleets()} == {730}
+    path = tmp_path / "mine.toml"
+    path.write_text("n_vehicles = 3\nhot_need = 1\nmild_need = 1\nshifts_per_year = 600\n")
+    mine = read_fleet(path)
+    assert mine.shifts_per_year == 600
+    assert dataclasses.replace(mine, shifts_per_year=730).digest == mine.digest
+    again = tmp_path / "again.toml"
+    again.write_text(fleet_toml(mine))
+    assert read_fleet(again).shifts_per_year == 600
+    (tmp_path / "plain.toml").write_text("n_vehicles = 3\nhot_need = 1\nmild_need = 1\n")
+    assert read_fleet(tmp_path / "plain.toml").shifts_per_year == 730
 
 
 def test_an_unknown_fleet_names_the_shipped_ones() -> None:
