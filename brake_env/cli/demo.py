@@ -4,7 +4,6 @@ stages of the ``brakewear.demo`` entry-point group in name order, then ``report.
 from __future__ import annotations
 
 import argparse
-import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -18,6 +17,7 @@ from brake_env.cli.simulate import (
     write_atlas,
     write_datasets,
 )
+from brake_env.cli.stage_clock import StageClock
 from brake_env.output import write_text
 
 
@@ -50,31 +50,55 @@ DEMO_WORKERS = 2
 
 def cmd_demo(args: argparse.Namespace) -> dict[str, Any]:
     out = Path(args.out)
-    t0 = time.perf_counter()
     stages = plugins("brakewear.demo")
     n = 2 + len(stages)
-    print(f"== 1/{n} atlas and calibration")
-    atlas = load_atlas(args)
-    other = "cold-start" if args.preset == "hot-duty" else "hot-duty"
-    atlas_info = write_atlas(atlas, args.preset, {other: load_atlas(args, other)}, out / "atlas")
-    print(f"\n== 2/{n} run-to-failure datasets")
-    job = SimulateJob(dataset_spec(args), args.seed, args.format, out / "data", args.quiet)
-    summary = write_datasets(atlas, job)
-    ctx = DemoContext(args, out, out / "atlas" / "atlas.npz", out / "data")
-    sections = []
-    for i, ep in enumerate(stages, start=3):
-        name = ep.name.split("-", 1)[-1]
-        print(f"\n== {i}/{n} {name}")
-        stage: DemoStage = ep.load()
-        ctx.results[name], section = stage(ctx)
-        sections.append(section)
-    report = _demo_report(atlas_info, summary, out, time.perf_counter() - t0)
+    with StageClock() as clock:
+        print(f"== 1/{n} atlas and calibration")
+        atlas = load_atlas(args)
+        other = "cold-start" if args.preset == "hot-duty" else "hot-duty"
+        others = {other: load_atlas(args, other)}
+        atlas_info = write_atlas(atlas, args.preset, others, out / "atlas")
+        times = {"atlas": _lap(clock)}
+        print(f"\n== 2/{n} run-to-failure datasets")
+        job = SimulateJob(dataset_spec(args), args.seed, args.format, out / "data", args.quiet)
+        summary = write_datasets(atlas, job)
+        times["datasets"] = _lap(clock)
+        ctx = DemoContext(args, out, out / "atlas" / "atlas.npz", out / "data")
+        sections = []
+        for i, ep in enumerate(stages, start=3):
+            name = ep.name.split("-", 1)[-1]
+            print(f"\n== {i}/{n} {name}")
+            stage: DemoStage = ep.load()
+            ctx.results[name], section = stage(ctx)
+            sections.append(section)
+            times[name] = _lap(clock)
+        times["total"] = (clock.wall(), clock.cpu())
+    report = _demo_report(atlas_info, summary, times)
     write_text(report + "".join("\n" + s for s in sections), out / "report.md")
+    summary["stage_seconds"] = {k: {"wall": w, "cpu": c} for k, (w, c) in times.items()}
     print(f"\nreport: {out / 'report.md'}")
     return summary
 
 
-def _demo_report(atlas: dict[str, Any], s: dict[str, Any], out: Path, seconds: float) -> str:
+def _lap(clock: StageClock) -> tuple[float, float]:
+    wall, cpu = clock.lap()
+    print(f"(stage: {wall:.1f} s wall, {cpu:.1f} s CPU)")
+    return wall, cpu
+
+
+def _times_table(times: dict[str, tuple[float, float]]) -> str:
+    rows = "\n".join(f"| {k} | {w:.1f} | {c:.1f} |" for k, (w, c) in times.items())
+    return f"""| stage | wall s | CPU s |
+|---|---|---|
+{rows}
+
+CPU is user + system time of this process and every process it started (a local Ray's
+workers included), read from /proc each second."""
+
+
+def _demo_report(
+    atlas: dict[str, Any], s: dict[str, Any], times: dict[str, tuple[float, float]]
+) -> str:
     life = s["life_events"]
     rising = atlas["mean_temp_strictly_rising_everywhere"]
     rows = "\n".join(
@@ -84,7 +108,12 @@ def _demo_report(atlas: dict[str, Any], s: dict[str, Any], out: Path, seconds: f
     )
     return f"""# BrakeWear demo report
 
-Seed {s["seed"]}; total {seconds:.1f} s. Atlas `{atlas["hash"][:16]}`.
+Seed {s["seed"]}; total {times["total"][0]:.1f} s wall, {times["total"][1]:.1f} s CPU.
+Atlas `{atlas["hash"][:16]}`.
+
+## Stage times
+
+{_times_table(times)}
 
 ## Calibration
 
