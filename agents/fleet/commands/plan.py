@@ -83,6 +83,7 @@ def _shop_args(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--policy",
         default="rule",
-        metavar="rule|MODULE:FACTORY",
-        help="the suite's tuned rule for the model's predictor, or a scored policy",
+        metavar="rule|rollout|MODULE:FACTORY",
+        help="the suite's tuned rule for the model's predictor, the rollout planner on it"
+        " (seconds a shift: use few --futures), or a scored policy",
     )

@@ -33,10 +33,10 @@ from brake_env.prognostics.duty import volume_estimate
 from brake_env.prognostics.events import RULEstimate
 from brake_env.prognostics.fleet import predict_runs
 from brake_env.prognostics.persist import check_atlas, load_predictor, model_atlas, read_header
+from brake_env.prognostics.planner_units import LEVEL, last_times, p_fail_before
 from brake_env.prognostics.protocol import iter_runs
 
 F64 = NDArray[np.float64]
-LEVEL = 0.90  # the predictors' intervals (docs/results/prognostics.md)
 Z = float(norm.ppf(0.5 + LEVEL / 2))
 
 
@@ -50,7 +50,7 @@ class VehicleEstimates:
         mean, lower, upper: Its RUL and 90% interval.
         volume: Its volume fraction (the predictor's, or the expected path's).
         wear_coeff: The K that gives ``mean`` from ``volume`` on the base clock.
-        as_of: Time stamp of each pad's last event (None where the log has none).
+        as_of: ``time_s`` of each pad's last event (None where the log has none).
         predictor: The predictor's name.
     """
 
@@ -61,7 +61,7 @@ class VehicleEstimates:
     upper: F64
     volume: F64
     wear_coeff: F64
-    as_of: tuple[str | None, ...]
+    as_of: tuple[float | None, ...]
     predictor: str
 
     @property
@@ -131,11 +131,9 @@ def from_log(
                        predictor=pred.name), atlas  # fmt: skip
 
 
-def _last_times(log: pd.DataFrame) -> dict[str, str]:
-    if "timestamp" not in log.columns:
-        return {}
-    t = log.groupby("run_id", observed=True, sort=False)["timestamp"].max()
-    return {str(k): str(pd.Timestamp(v).isoformat()) for k, v in t.items() if pd.notna(v)}
+def _last_times(log: pd.DataFrame) -> dict[str, float]:
+    t = last_times(log)
+    return {str(k): float(v) for k, v in t.items() if np.isfinite(v)}
 
 
 def _base_clock(atlas: Atlas) -> WearModel:
@@ -150,13 +148,9 @@ def rul_quantiles(est: VehicleEstimates, u: F64) -> F64:
 
 
 def p_fail_within(est: VehicleEstimates, events: F64) -> F64:
-    """Probability that each pad fails within ``events`` base-mix events."""
-    mu, sigma = _lognormal(est)
-    e = np.maximum(np.asarray(events, dtype=np.float64), 1e-300)
-    with np.errstate(divide="ignore"):
-        z = (np.log(e) - mu) / np.where(sigma > 0, sigma, 1.0)
-    sure = np.where(e >= np.exp(mu), 1.0, 0.0)
-    return np.where(sigma > 0, norm.cdf(z), sure) * (np.asarray(events) > 0)
+    """Probability that each pad fails within ``events`` base-mix events (the lognormal
+    :func:`~brake_env.prognostics.planner_units.p_fail_before` reads ``predict``'s with)."""
+    return p_fail_before(est.lower, est.upper, events, LEVEL)
 
 
 def _lognormal(est: VehicleEstimates) -> tuple[F64, F64]:

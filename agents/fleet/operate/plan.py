@@ -127,10 +127,16 @@ def plot_plan(table: pd.DataFrame, summary: dict[str, Any], path: Any) -> None:
     handles = [plt.Rectangle((0, 0), 1, 1, color=c) for c in colours.values()]
     ax.legend(handles, list(colours), title="coming shift", loc="lower right")
     fig.suptitle(
-        f"Plan as of {summary['as_of'] or 'the log'}: window in {summary['shifts_to_window']}"
+        f"Plan as of {as_of(summary)}: window in {summary['shifts_to_window']}"
         f" shifts; expected cost {summary['expected_cost']:,.0f} {summary['currency']}"
         f" (90%: {summary['cost_interval'][0]:,.0f}-{summary['cost_interval'][1]:,.0f})"
     )
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
+
+
+def as_of(summary: dict[str, Any]) -> str:
+    """The plan's as-of time as printed: the log's clock (``time_s``) of the last event."""
+    t = summary["as_of"]
+    return "the log's end (no time stamps)" if t is None else f"time_s {t:,.0f}"

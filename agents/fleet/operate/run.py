@@ -24,7 +24,9 @@ from agents.fleet.benchmark.suite import read_suite
 from agents.fleet.evaluation.tuning import SPACES
 from agents.fleet.operate.estimates import VehicleEstimates, from_log, state_of
 from agents.fleet.operate.futures import simulate
-from agents.fleet.operate.plan import plan_summary, plan_table, plot_plan
+from agents.fleet.operate.plan import as_of, plan_summary, plan_table, plot_plan
+from agents.fleet.policies.planning import PlanningModel
+from agents.fleet.policies.rollout import RolloutPolicy
 from agents.fleet.policies.view import FleetLayout
 from brake_env.csv_safe import write_csv
 from brake_env.env.fleet.config import FleetConfig
@@ -59,8 +61,8 @@ def parse_down(items: list[str], vehicles: tuple[str, ...]) -> list[int]:
     return down
 
 
-def rule_factory(suite_name: str, predictor: str, config: FleetConfig) -> tuple[Any, str]:
-    """(factory(env) of the suite's tuned rule for ``predictor``'s RUL, its label)."""
+def suite_rule(suite_name: str, predictor: str, config: FleetConfig) -> tuple[Any, str]:
+    """(the suite's tuned rule for ``predictor``'s RUL on ``config``, its label)."""
     import optuna  # the fleet extra, imported where used (as in tuning.tune)
 
     suite = read_suite(suite_name)
@@ -68,14 +70,34 @@ def rule_factory(suite_name: str, predictor: str, config: FleetConfig) -> tuple[
     name = f"{predictor}-rule"
     if name not in shipped:
         rules = [k for k, b in shipped.items() if b.get("kind") == "rule"]
-        raise ValueError(f"--policy rule: suite {suite.name!r} ships no rule tuned on"
+        raise ValueError(f"--policy: suite {suite.name!r} ships no rule tuned on"
                          f" {predictor!r}'s RUL (it ships {', '.join(rules) or 'none'}); give"
                          " --suite or --policy MODULE:FACTORY")  # fmt: skip
     entry = shipped[name]
-    lay = FleetLayout.of(config)
     trial = optuna.trial.FixedTrial(entry["params"])
-    rule = SPACES[entry["policy"]](trial, lay, config.window_period)
-    return (lambda env: Adapted(rule, env)), f"baseline:{name} of suite {suite.name}"
+    rule = SPACES[entry["policy"]](trial, FleetLayout.of(config), config.window_period)
+    return rule, f"baseline:{name} of suite {suite.name}"
+
+
+def rule_factory(suite_name: str, predictor: str, config: FleetConfig) -> tuple[Any, str]:
+    """(factory(env) of the suite's tuned rule for ``predictor``'s RUL, its label)."""
+    rule, label = suite_rule(suite_name, predictor, config)
+    return (lambda env: Adapted(rule, env)), label
+
+
+def policy_factory(
+    args: argparse.Namespace, predictor: str, config: FleetConfig, atlas: Any
+) -> tuple[Any, str]:
+    """(factory(env), label) of ``--policy``: the suite's rule, the rollout planner on it
+    (the study's horizon and futures), or a scored ``MODULE:FACTORY``."""
+    if args.policy == "rule":
+        return rule_factory(args.suite, predictor, config)
+    if args.policy == "rollout":
+        rule, label = suite_rule(args.suite, predictor, config)
+        planner = RolloutPolicy(rule, PlanningModel.build(config, atlas), seed=args.seed)
+        return (lambda env: Adapted(planner, env)), f"rollout on {label}"
+    user = load_factory(args.policy)
+    return (lambda env: Adapted(user(env), env)), args.policy
 
 
 def make_plan(args: argparse.Namespace) -> dict[str, Any]:
@@ -96,11 +118,7 @@ def make_plan(args: argparse.Namespace) -> dict[str, Any]:
         "down": parse_down(args.down, est.vehicles),
     }
     state = state_of(est, config, shift, shop)
-    if args.policy == "rule":
-        factory, label = rule_factory(args.suite, est.predictor, config)
-    else:
-        user = load_factory(args.policy)
-        factory, label = (lambda env: Adapted(user(env), env)), args.policy
+    factory, label = policy_factory(args, est.predictor, config, atlas)
     fut = simulate(config, atlas, est, state, policy=factory, horizon=horizon,
                    futures=args.futures, seed=args.seed)  # fmt: skip
     plan = plan_table(est, config, atlas, fut, shift)
@@ -128,7 +146,7 @@ def plan_text(plan: Any, s: dict[str, Any], est: VehicleEstimates) -> str:
         ])  # fmt: skip
     cur, lo_hi = s["currency"], s["cost_interval"]
     return "\n".join([
-        f"Plan as of {s['as_of'] or '(no time stamps)'}, {s['predictor']} model, policy"
+        f"Plan as of {as_of(s)}, {s['predictor']} model, policy"
         f" {s['policy']}; next window in {s['shifts_to_window']} shifts:",
         table(rows),
         f"order now: {s['order_now']} pads; service now: {', '.join(s['service_now']) or 'none'}",
