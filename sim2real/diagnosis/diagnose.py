@@ -46,6 +46,7 @@ from sim2real.diagnosis.preconditions import check_log
 from sim2real.diagnosis.quantify import RulScorer, quantify, rul_error
 from sim2real.diagnosis.refine import ParameterFit, refine_winner
 from sim2real.diagnosis.replay import ReplayModel
+from sim2real.diagnosis.separate import separate
 from sim2real.effects.interface import Effect
 from sim2real.effects.library import LIBRARY
 
@@ -132,8 +133,8 @@ def diagnose(
 @dataclass(frozen=True, eq=False)
 class _Attribution:
     """The attribution step's outcome: candidate rows and fits (best first), the verdict,
-    the candidates skipped, the held-out gap of the nominal model and the winner's
-    parameter (None without a winner)."""
+    the candidates skipped, the held-out gap of the nominal model, the winner's parameter
+    (None without a winner) and, when two candidates tie, what would separate them."""
 
     rows: list[dict[str, Any]]
     scored: list[Scored]
@@ -141,6 +142,7 @@ class _Attribution:
     skipped: dict[str, str]
     gap0: dict[str, dict[str, Any]]
     parameter: ParameterFit | None
+    separation: dict[str, Any] | None = None
 
     def summary(self, nominal: Nominal) -> dict[str, Any]:
         v = self.verdict
@@ -149,6 +151,7 @@ class _Attribution:
             "reason": v.reason,
             "winner": v.winner.key if v.winner else None,
             "parameter": self.parameter.summary() if self.parameter else None,
+            "separation": self.separation,
             "candidates": self.rows,
             "skipped": self.skipped,
             "nominal_held_loglik_per_event": float(nominal.held.loglik.mean()),
@@ -170,12 +173,24 @@ def _attribute(
     rows, scored = candidate_table(scored, nominal, d, cells, split, cfg.level)
     verdict = decide(rows, scored, gap0, cfg)
     if verdict.winner is None:
-        return _Attribution(rows, scored, verdict, skipped, gap0, None)
+        return _Attribution(rows, scored, verdict, skipped, gap0, None, _tie(ctx, rows, scored))
     refined, fit = refine_winner(scored[0], ctx, boot_rng, progress=progress)
     rows, scored = candidate_table([refined, *scored[1:]], nominal, d, cells, split, cfg.level)
     verdict = decide(rows, scored, gap0, cfg)
     named = verdict.winner is not None and scored[0] is refined  # (the refinement kept it)
-    return _Attribution(rows, scored, verdict, skipped, gap0, fit if named else None)
+    sep = None if named else _tie(ctx, rows, scored)
+    return _Attribution(rows, scored, verdict, skipped, gap0, fit if named else None, sep)
+
+
+def _tie(
+    ctx: Calibration, rows: list[dict[str, Any]], scored: list[Scored]
+) -> dict[str, Any] | None:
+    """What would separate the two best candidates, when the verdict abstains because they
+    tie (:func:`~.attribute.decide` sets their paired z only when it gets that far)."""
+    z = rows[0].get("held_z_vs_runner_up") if rows else None
+    if z is None or z >= ctx.cfg.win_z:
+        return None
+    return separate(ctx, scored[0], scored[1])
 
 
 def _split_runs(d: LogData, cfg: DiagnosisConfig, rng: np.random.Generator) -> RunSplit:

@@ -62,14 +62,23 @@ def _cut(x: F64, edges: F64, fmt: str) -> Binning:
     return Binning(idx.astype(np.int64), labels)
 
 
+def operating_edges(atlas: Atlas) -> dict[str, F64]:
+    """Bin edges of the operating range [SI units]: 4 speed, 2 mass and 3 slope bins over
+    the atlas's envelope."""
+    return {
+        "speed": np.linspace(atlas.speed_mps[0], atlas.speed_mps[-1], 5),
+        "mass": np.linspace(atlas.mass_kg[0], atlas.mass_kg[-1], 3),
+        "slope": np.linspace(atlas.slope_rad[0], atlas.slope_rad[-1], 4),
+    }
+
+
 def factor_bins(d: LogData, atlas: Atlas) -> dict[str, Binning]:
     """Bins of every factor: speed, mass, slope, life stage and (with event times) the
     time since the previous event (terciles)."""
     n_run = np.diff(d.starts)[d.run]
     pos = (np.arange(d.run.size) - d.starts[d.run]) / np.maximum(n_run, 1)
-    speed = np.linspace(atlas.speed_mps[0], atlas.speed_mps[-1], 5) * 3.6
-    mass = np.linspace(atlas.mass_kg[0], atlas.mass_kg[-1], 3) / 1000
-    slope = np.degrees(np.linspace(atlas.slope_rad[0], atlas.slope_rad[-1], 4))
+    edges = operating_edges(atlas)
+    speed, mass, slope = edges["speed"] * 3.6, edges["mass"] / 1000, np.degrees(edges["slope"])
     out = {
         "speed": _cut(d.speed_mps * 3.6, speed, "{:.1f}-{:.1f} km/h"),
         "mass": _cut(d.mass_kg / 1000, mass, "{:.0f}-{:.0f} t"),

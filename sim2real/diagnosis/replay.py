@@ -23,6 +23,7 @@ like the logger does.
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 from dataclasses import dataclass
 
@@ -115,6 +116,14 @@ class ReplayModel:
             )
         self.u, ref_mean = self._operational_time()
         self.clock = self._wear_clock(*self._layer_wear(condition_sample, ref_mean))
+
+    def on(self, data: LogData) -> ReplayModel:
+        """This model (effect, change grids, wear clock) answering for another log's events:
+        their conditions and, between events, their predecessors and gaps. Only
+        :meth:`respond` and :meth:`predict` apply (the operational time stays this log's)."""
+        out = copy.copy(self)
+        out.data = data
+        return out
 
     # ------------------------------------------------------------------ the pad state
     def _operational_time(self) -> tuple[F64, float]:

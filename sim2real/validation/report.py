@@ -10,6 +10,7 @@ from brake_env.output import table, write_json, write_text
 from sim2real.diagnosis.diagnose import DiagnosisResult
 from sim2real.diagnosis.fix import fix_lines
 from sim2real.diagnosis.localise import CHANNEL_NAMES, CHANNELS
+from sim2real.diagnosis.separate import separation_lines
 from sim2real.validation.plots import FIGURES, figures
 from sim2real.validation.validate import short_label
 
@@ -25,6 +26,8 @@ def text_report(r: DiagnosisResult) -> str:
     s = r.summary
     a = s["attribution"]
     lines = [f"verdict: {a['verdict']}", f"  {a['reason']}", *_parameter_lines(a), ""]
+    sep = separation_lines(a.get("separation"))
+    lines += [*sep, *([""] if sep else [])]
     lines.append(
         f"log: {s['log']['runs']} runs, {s['log']['events']} events"
         f" ({len(s['log']['calibration_runs'])} calibration, "
