@@ -12,6 +12,7 @@ from tqdm import tqdm
 from agents.fleet.policies.lagrangian import BoundModel
 from agents.fleet.settings import FleetStudyConfig, FleetTraining
 from agents.fleet.study.build import truth_atlas
+from agents.fleet.study.fits import check_models
 from agents.fleet.study.run import report, run_fleet_study
 from brake_env.cli.common import load_atlas, make_runner
 from brake_env.cli.demo import DEMO_PREDICTORS, DEMO_WORKERS, DemoContext
@@ -25,6 +26,7 @@ def cmd_fleet_study(args: argparse.Namespace) -> dict[str, Any]:
     config = config_from_args(args)
     atlas = load_atlas(args)
     truth = truth_atlas(config, atlas, args.cache_dir)  # with --effect: built on a cache miss
+    check_models(config, atlas, truth)  # --model fitted on other physics: refused here
     if config.bound_iterations:  # a bound too large for memory, refused before any unit runs
         BoundModel.build(config.fleet, truth, credit=True)
     with make_runner(args) as runner:
@@ -92,7 +94,7 @@ def config_from_args(args: argparse.Namespace) -> FleetStudyConfig:
         seed=args.seed, rollout_predictors=args.rollout, rollout_horizon=args.rollout_horizon,
         rollout_samples=args.rollout_samples, rollout_chunk=args.rollout_chunk,
         bound_iterations=args.bound_iterations, objective=args.objective,
-        effects=_effects(args),
+        effects=_effects(args), models=tuple(getattr(args, "model", None) or ()),
     )  # fmt: skip
 
 

@@ -13,6 +13,7 @@ from agents.fleet.settings import (
     DEFAULT_HEURISTICS,
     HEURISTICS,
     OBJECTIVES,
+    check_model,
     study_predictor_names,
 )
 from brake_env.cli.common import (
@@ -41,6 +42,19 @@ def fleet_name(text: str) -> str:
     return text
 
 
+def model_arg(text: str) -> tuple[str, str]:
+    """``--model NAME=DIR``: a saved model (``brakewear fit --out DIR``) under a name of its
+    own; its atlas is checked when the study's is loaded, before any unit."""
+    name, sep, path = text.partition("=")
+    if not sep or not path:
+        raise argparse.ArgumentTypeError(f"{text!r}: give NAME=DIR (a model from brakewear fit)")
+    try:
+        check_model(name, path)
+    except ValueError as e:
+        raise argparse.ArgumentTypeError(str(e)) from None
+    return name, path
+
+
 def register(sub: argparse._SubParsersAction[Any]) -> None:
     """Add ``fleet-study`` to the ``brakewear`` parser."""
     fmt = argparse.ArgumentDefaultsHelpFormatter
@@ -60,6 +74,11 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
     f.add_argument(
         "--predictors", type=predictor_list, default=predictor_names(),
         help="comma-separated; NAME+effect: NAME made on the physics with the --effect(s)",
+    )  # fmt: skip
+    f.add_argument(
+        "--model", action="append", type=model_arg, default=[], metavar="NAME=DIR",
+        help="a model of your own (brakewear fit --out DIR), ranked beside the predictors"
+        " under NAME: loaded, not fitted; fitted on the study's atlas (repeatable)",
     )  # fmt: skip
     f.add_argument(
         "--effect", action="append", default=[], metavar="NAME:P=V[,...]",

@@ -18,11 +18,14 @@ from agents.fleet.settings.distil import PPO_ONLY, DistilConfig
 from agents.fleet.settings.study import (
     DEFAULT_HEURISTICS,
     FED_BACK,
+    FIXED_INTERVAL,
     HEURISTICS,
     OBJECTIVES,
     SIZES,
+    UNFITTED,
     FleetStudyConfig,
     Objective,
+    check_model,
     study_predictor_names,
 )
 from agents.fleet.settings.training import (
@@ -35,7 +38,8 @@ from agents.fleet.settings.training import (
 )
 
 __all__ = [
-    "CURVE_SEED0", "DEFAULT_HEURISTICS", "FED_BACK", "HEURISTICS", "IMITATION_SEED0",
-    "LABEL_SEED0", "OBJECTIVES", "PPO_ONLY", "SIZES", "TRAIN_SEED0", "TUNE_SEED0",
-    "DistilConfig", "FleetStudyConfig", "FleetTraining", "Objective", "study_predictor_names",
+    "CURVE_SEED0", "DEFAULT_HEURISTICS", "FED_BACK", "FIXED_INTERVAL", "HEURISTICS",
+    "IMITATION_SEED0", "LABEL_SEED0", "OBJECTIVES", "PPO_ONLY", "SIZES", "TRAIN_SEED0",
+    "TUNE_SEED0", "UNFITTED", "DistilConfig", "FleetStudyConfig", "FleetTraining", "Objective",
+    "check_model", "study_predictor_names",
 ]  # fmt: skip

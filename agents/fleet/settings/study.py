@@ -5,12 +5,15 @@ from __future__ import annotations
 
 import hashlib
 import json
+import re
 from dataclasses import asdict, dataclass, field
 from typing import Any, Literal
 
 from agents.fleet.settings.training import CURVE_SEED0, TUNE_SEED0, FleetTraining
 from brake_env.env.fleet.config import FleetConfig
-from brake_env.env.fleet.fleet_file import read_fleet, shipped_fleets
+from brake_env.env.fleet.fleet_file import FleetFile, read_fleet, shipped_fleets
+from brake_env.prognostics.commands.predict_units import model_checksum
+from brake_env.prognostics.persist import read_header
 from brake_env.prognostics.registry import ORACLE, predictor_names
 
 # The sizes of before the fleet files: their units' settings name the size alone.
@@ -29,12 +32,38 @@ DEFAULT_HEURISTICS = ("threshold", "(n, N)", "best combination")
 # diagnosis fed back), as `brakewear backtest --fed-back` names it; NAME alone is made on the
 # nominal atlas (its user does not know the effect).
 FED_BACK = "+effect"
+# Replacement by age alone (agents.fleet.study.interval): the baseline a predictor's value
+# is counted from. Like the oracle, nothing is fitted for it.
+FIXED_INTERVAL = "fixed-interval"
+UNFITTED = (ORACLE, FIXED_INTERVAL)
+# A user's model's name (--model NAME=DIR): a word, as unit keys and tables take it.
+MODEL_NAME = re.compile(r"[A-Za-z][A-Za-z0-9_.-]{0,39}")
 
 
 def study_predictor_names() -> tuple[str, ...]:
-    """The registry's predictors and, but for the oracle's, their fed-back versions."""
+    """The registry's predictors, but for the oracle's their fed-back versions, and the
+    fixed interval."""
     names = predictor_names()
-    return (*names, *(n + FED_BACK for n in names if n != ORACLE))
+    return (*names, *(n + FED_BACK for n in names if n != ORACLE), FIXED_INTERVAL)
+
+
+def check_model(name: str, path: str) -> None:
+    """A user's saved model ``NAME=DIR`` as a study takes it: a name of its own (no
+    registered predictor's) and a model directory ``brakewear fit`` wrote.
+
+    Raises:
+        ValueError: The name or the directory, named.
+    """
+    if not isinstance(name, str) or not MODEL_NAME.fullmatch(name):
+        raise ValueError(f"model {name!r}: a name is a letter then up to 39 letters, digits"
+                         " or _ . -")  # fmt: skip
+    if name in study_predictor_names():
+        raise ValueError(f"model {name!r}: the name of a registered predictor; give the model"
+                         " a name of its own (--model MINE=DIR)")  # fmt: skip
+    try:
+        read_header(path)
+    except (FileNotFoundError, ValueError) as e:
+        raise ValueError(f"model {name!r}: {e}") from None
 
 
 @dataclass(frozen=True)
@@ -87,6 +116,9 @@ class FleetStudyConfig:
             pads are on the atlas with them (the truth); each predictor is made on the nominal
             atlas, ``NAME+effect`` (:data:`FED_BACK`) on the truth's.
             Empty: no effect, the study as it was.
+        models: A user's saved models (``brakewear fit --out DIR``) as (NAME, DIR): each is
+            loaded instead of fitted and ranked among the predictors (NAME is added to
+            ``predictors`` if not there); its checksum is in the settings.
     """
 
     size: str = "small"
@@ -114,6 +146,7 @@ class FleetStudyConfig:
     bound_iterations: int = 0
     objective: Objective = "cost"
     effects: tuple[str, ...] = ()
+    models: tuple[tuple[str, str], ...] = ()
 
     def __post_init__(self) -> None:
         if not isinstance(self.size, str) or not self.size:
@@ -133,7 +166,8 @@ class FleetStudyConfig:
             raise ValueError(
                 f"FleetStudyConfig: unknown heuristic(s) {bad}; known {list(HEURISTICS)}"
             )
-        known = study_predictor_names()
+        self._check_models()
+        known = (*study_predictor_names(), *self.model_names)
         bad = [p for p in self.predictors if p not in known]
         if bad or not self.predictors:
             raise ValueError(
@@ -181,12 +215,41 @@ class FleetStudyConfig:
         if tr.get("reorder") is not None:
             tr["reorder"] = tuple(tr["reorder"])
         tuples = ("predictors", "heuristics", "agent_predictors", "rollout_predictors", "effects")
+        models = tuple((str(n), str(p)) for n, p in d.get("models", ()))
         return cls(**{**d, **{k: tuple(d[k]) for k in tuples if k in d},
-                      "training": FleetTraining(**tr)})  # fmt: skip
+                      "training": FleetTraining(**tr), "models": models})  # fmt: skip
+
+    def _check_models(self) -> None:
+        """Each model named once, by a name of its own, a model directory; its name joins
+        the predictors (a config read back from ``costs.json`` has it there already)."""
+        if not isinstance(self.models, tuple) or not all(
+            isinstance(m, tuple) and len(m) == 2 for m in self.models
+        ):
+            raise ValueError(f"FleetStudyConfig: models must be a tuple of (NAME, DIR),"
+                             f" got {self.models!r}")  # fmt: skip
+        names = self.model_names
+        if len(set(names)) < len(names):
+            raise ValueError(f"FleetStudyConfig: a model name given twice in {list(names)}")
+        for name, path in self.models:
+            check_model(name, path)
+        extra = tuple(n for n in names if n not in self.predictors)
+        object.__setattr__(self, "predictors", (*self.predictors, *extra))
+
+    @property
+    def model_names(self) -> tuple[str, ...]:
+        return tuple(n for n, _ in self.models)
+
+    def model_dir(self, name: str) -> str:
+        return dict(self.models)[name]
+
+    @property
+    def fleet_file(self) -> FleetFile:
+        """The fleet file (its currency and shifts a year), episodes as the study's."""
+        return read_fleet(self.size, episode_shifts=self.shifts, truth=False)
 
     @property
     def fleet(self) -> FleetConfig:
-        return read_fleet(self.size, episode_shifts=self.shifts, truth=False).config
+        return self.fleet_file.config
 
     @property
     def has_reference(self) -> bool:
@@ -219,6 +282,8 @@ class FleetStudyConfig:
             out["fleet"] = read_fleet(self.size).digest
         if self.episodes_from:
             out["episodes_from"] = self.episodes_from
+        if self.models:  # units are of the model's very bytes (its header names its arrays')
+            out["models"] = {n: model_checksum(p) for n, p in self.models}
         return out
 
     def _check_effects(self) -> None:

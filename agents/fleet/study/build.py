@@ -19,7 +19,8 @@ import numpy as np
 from agents.fleet.evaluation.costs import EpisodeCost
 from agents.fleet.evaluation.tuning import SPACES
 from agents.fleet.policies.view import FleetLayout
-from agents.fleet.settings import FleetStudyConfig
+from agents.fleet.settings import FIXED_INTERVAL, FleetStudyConfig
+from agents.fleet.study.interval import AgeRULObservation
 from brake_env.env.fleet.env import BrakeWearFleetEnv
 from brake_env.env.fleet.route_rul import ROUTE_NAMES
 from brake_env.env.fleet.wrappers import ExpectedRULObservation, FleetRULObservation
@@ -72,10 +73,12 @@ def rul_env(
 ) -> Any:  # fmt: skip
     """The fleet env on ``atlas`` (the truth) with ``predictor``'s RUL appended (``fields``
     on each of ``routes`` per vehicle, in shifts; carried onto the routes with the fitted
-    predictor's own atlas)."""
+    predictor's own atlas; the fixed interval's from the pad's age alone)."""
     env = BrakeWearFleetEnv(config.fleet, atlas=atlas)
     if predictor == ORACLE:
         return ExpectedRULObservation(env, fields, routes)
+    if predictor == FIXED_INTERVAL:
+        return AgeRULObservation(env, fields, routes)
     assert fitted is not None, f"predictor {predictor!r} needs a fitted predictor"
     return FleetRULObservation(env, fitted.predictor, fields=fields, routes=routes,
                                atlas=fitted.atlas)  # fmt: skip

@@ -15,11 +15,12 @@ from typing import Any
 
 from agents.fleet.settings import FleetStudyConfig
 from agents.fleet.study.build import episodes_of, rebuild_rule, rul_env, truth_atlas, truth_spec
+from agents.fleet.study.fits import check_models
+from agents.fleet.study.money import money_lines
 from agents.fleet.study.summary import REFERENCE, summarise
 from agents.fleet.study.units import run_units, study_fit
 from brake_env.model.atlas import Atlas
 from brake_env.output import table, write_json
-from brake_env.prognostics.registry import ORACLE
 from brake_env.runner import Runner
 
 
@@ -41,11 +42,13 @@ def run_fleet_study(
     atlas cache, :func:`~agents.fleet.study.build.truth_atlas`).
 
     Raises:
-        ValueError: ``truth`` is not ``atlas`` with the study's effects, or an effect is
-            unknown or one an atlas cannot hold.
+        ValueError: ``truth`` is not ``atlas`` with the study's effects, an effect is
+            unknown or one an atlas cannot hold, or a user's model (``config.models``) was
+            fitted on neither atlas.
     """
     t0 = time.perf_counter()
     truth = _truth(config, atlas, truth)
+    check_models(config, atlas, truth)  # a user's model on other physics: before any unit
     units = run_units(config, atlas, out, runner, progress, resume, truth=truth)
     summary = summarise(config, units, n_resamples)
     if config.effects:
@@ -86,7 +89,7 @@ def _figures(
     p = "twin" if "twin" in config.predictors else config.predictors[0]
     h = summary["best_heuristic"][p]
     atlas, truth = atlases
-    fitted = None if p == ORACLE else study_fit(config, p, atlas, truth)
+    fitted = study_fit(config, p, atlas, truth)
     env = rul_env(config, truth, p, fitted)
     rule = rebuild_rule(config, h, units[config.heuristic_key(p, h)]["params"])
     seed = config.eval_seeds()[0]
@@ -100,12 +103,13 @@ def _figures(
 def report(summary: dict[str, Any], markdown: bool = False) -> str:
     """The study's tables as text: policies, the predictors' ranking, the agents."""
     c = summary["config"]
+    cur = summary["money"]["currency"] if "money" in summary else "currency units"
     lines = [
         f"Fleet study: {c['size']} fleet ({c['fleet']['n_vehicles']} vehicles), {c['shifts']}"
         f" shifts an episode; {c['eval_episodes']} evaluation episodes (the same for every"
         f" policy); heuristics tuned with {c['trials']} Optuna trials ({c['trials_best']} for"
-        f" the combination) on {c['tune_episodes']} tuning episodes each. Cost per vehicle-shift,"
-        " pads priced when fitted; intervals 95%, paired over episodes."
+        f" the combination) on {c['tune_episodes']} tuning episodes each. Cost in {cur} per"
+        " vehicle-shift, pads priced when fitted; intervals 95%, paired over episodes."
     ]
     bound = summary.get("bound")
     gap = ["net cost", "gap to bound (net)"] if bound else []
@@ -126,8 +130,9 @@ def report(summary: dict[str, Any], markdown: bool = False) -> str:
                      _ivs(a["iqm"], 2), "", _ivs(a.get("ratio_to_reference")), "", ""])  # fmt: skip
     lines += [table(rows, markdown), "* the predictor's best heuristic (on the tuning episodes)"]
     lines += _planner_lines(summary) + _effect_lines(summary, markdown)
+    lines += money_lines(summary, table, markdown)
     rk = summary["ranking"]
-    lines.append("\nPredictors by their best heuristic's cost: "
+    lines.append(f"\nPredictors by their best heuristic's cost ({cur} per vehicle-shift): "
                  + ", ".join(f"{p} {rk['cost'][p]:.2f}" for p in rk["order"]))  # fmt: skip
     if rk["head_minus"]:  # one predictor alone has nothing to be compared with
         rows = [["predictor", f"{rk['head']} minus it", f"{rk['head']} / it"]]

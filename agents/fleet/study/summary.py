@@ -28,6 +28,7 @@ from agents.fleet.evaluation.costs import (
 )
 from agents.fleet.settings import FED_BACK, FleetStudyConfig, Objective
 from agents.fleet.study.build import episodes_of
+from agents.fleet.study.money import add_money
 from agents.fleet.study.planners import BOUND, PRICED
 from agents.fleet.study.units import best_heuristic
 from brake_env.prognostics.registry import ORACLE
@@ -63,6 +64,7 @@ def summarise(
             rows[-1]["best_so_far"] = np.asarray(u["best_so_far"]).tolist()
     best = {p: best_heuristic(config, units, p) for p in config.predictors}
     planners = _planners(config, units, eps, best, ref, rows)
+    money = add_money(config, rows, eps, best)  # every row's figures a year, too
     ranking = _ranking(config, eps, best)
     agents = {}
     for kind, n in (("central", config.agent_seeds), ("shared", config.shared_seeds)):
@@ -79,6 +81,7 @@ def summarise(
         "ranking": ranking,
         "agents": agents,
         "terms": {f"{p} / {best[p]}": term_means(eps[(p, best[p])]) for p in config.predictors},
+        "money": money,
         **planners,
     }
     if ref is not None:
@@ -156,8 +159,9 @@ def _config_dict(config: FleetStudyConfig) -> dict[str, Any]:
     from dataclasses import asdict
 
     d = asdict(config)
-    if not d["effects"]:  # a study without effects writes the config it always wrote
-        del d["effects"]
+    for k in ("effects", "models"):  # a study without them writes the config it always wrote
+        if not d[k]:
+            del d[k]
     d["fleet"] = {k: v for k, v in asdict(config.fleet).items() if not isinstance(v, dict)}
     return d
 

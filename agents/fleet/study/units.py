@@ -38,7 +38,7 @@ from agents.fleet.evaluation.tuning import tune
 from agents.fleet.learning.agent import FleetAgent, train_fleet_agent
 from agents.fleet.policies.reference import ReferenceModel, ReferencePolicy, solve
 from agents.fleet.policies.rules import FleetRuleParams
-from agents.fleet.settings import FED_BACK, TRAIN_SEED0, FleetStudyConfig
+from agents.fleet.settings import TRAIN_SEED0, UNFITTED, FleetStudyConfig
 from agents.fleet.study.build import (
     Fitted,
     episodes_dict,
@@ -48,11 +48,13 @@ from agents.fleet.study.build import (
     single_thread,
 )
 from agents.fleet.study.curve import LearningCurve, mean_cost
+from agents.fleet.study.fits import fit_args as fit_args  # re-exported: its home before
+from agents.fleet.study.fits import fit_job
+from agents.fleet.study.fits import fit_unit as fit_unit
+from agents.fleet.study.fits import study_fit as study_fit
 from agents.fleet.study.planners import bound_unit, rollout_unit
-from brake_env.data.datasets import DatasetSpec, make_dataset
 from brake_env.model.atlas import Atlas
-from brake_env.model.regime import WearRegime
-from brake_env.prognostics.registry import ORACLE, fit_predictors, make_predictor
+from brake_env.prognostics.registry import ORACLE
 from brake_env.runner import Later, Runner, Unit
 from brake_env.units import open_store
 
@@ -154,14 +156,14 @@ def study_graph(
     shared: dict[str, Any] = {}  # each fitted predictor put in Ray's object store once
 
     def fitted(p: str, r: Mapping[str, Any]) -> Any:
-        if p == ORACLE:
+        if p in UNFITTED:
             return None
         if p not in shared:
             shared[p] = runner.share(r[f"fit-{p}"])
         return shared[p]
 
     def fit_of(p: str) -> tuple[str, ...]:
-        return () if p == ORACLE else (f"fit-{p}",)
+        return () if p in UNFITTED else (f"fit-{p}",)
 
     def h_keys(p: str) -> tuple[str, ...]:
         return tuple(config.heuristic_key(p, h) for h in config.heuristics)
@@ -191,8 +193,8 @@ def study_graph(
         return sum(w[k] for k in keys)
 
     nodes: list[Unit | Later] = [
-        Unit(f"fit-{p}", fit_unit, fit_args(config, p, nominal or atlas, atlas), waiting(p))
-        for p in config.predictors if p != ORACLE
+        Unit(f"fit-{p}", *fit_job(config, p, nominal or atlas, atlas), waiting(p))
+        for p in config.predictors if p not in UNFITTED
     ]  # fmt: skip
     nodes += [Later(config.heuristic_key(p, h), fit_of(p), partial(heuristic, p=p, h=h))
               for p in config.predictors for h in config.heuristics]  # fmt: skip
@@ -237,35 +239,6 @@ def _spares(config: FleetStudyConfig, results: dict[str, Any], best: str | None)
         return p.s, p.S
     rule = rebuild_rule(config, best, results[config.heuristic_key(ORACLE, best)]["params"])
     return int(rule.params.s), int(rule.params.S)
-
-
-def fit_args(
-    config: FleetStudyConfig, predictor: str, nominal: Atlas, truth: Atlas
-) -> tuple[Any, ...]:
-    """:func:`fit_unit`'s arguments for the study's ``predictor``: ``NAME+effect`` is NAME
-    made on the truth's atlas (the diagnosis fed back), any other name on the nominal one."""
-    fed = predictor.endswith(FED_BACK)
-    name = predictor.removesuffix(FED_BACK)
-    return (name, truth if fed else nominal, config.seed, config.n_train_runs, truth)
-
-
-def study_fit(config: FleetStudyConfig, predictor: str, nominal: Atlas, truth: Atlas) -> Fitted:
-    """The study's fit of ``predictor`` (as its units have it)."""
-    return fit_unit(*fit_args(config, predictor, nominal, truth))
-
-
-def fit_unit(
-    name: str, atlas: Atlas, seed: int, n_train_runs: int, truth: Atlas | None = None
-) -> Fitted:
-    """``name`` made on ``atlas`` and fitted on ``n_train_runs`` run-to-failure pads (the
-    study's K) simulated on ``truth`` (default ``atlas``: the pads wear as it models them)."""
-    if truth is None or truth.content_hash == atlas.content_hash:
-        fitted, _ = fit_predictors((name,), atlas, seed, n_train_runs, WearRegime())
-        return Fitted(fitted[name], atlas)
-    spec = DatasetSpec(n_train=n_train_runs, n_id=0, n_ood_slow=0, n_ood_fast=0,
-                       wear=WearRegime())  # fmt: skip
-    log = make_dataset(truth, spec, seed).logs["train"]
-    return Fitted(make_predictor(name, atlas, seed).fit(log), atlas)
 
 
 def heuristic_unit(
