@@ -8,7 +8,7 @@ control limit and the (n, N) opportunistic limits, each with fixed (untuned) lim
 shifts of hot duty, and under the reference (an exact dynamic program on the true pad
 states, followed in the env). Every policy sees the same pads and breakdowns (common random
 numbers); the printout is the cost per vehicle-shift and where it goes. Tuning and
-intervals are in ``brakewear fleet-study`` and ``benchmarks/fleet_room.py``
+intervals are in ``brakewear fleet-study`` and ``benchmarks/analysis/fleet_room.py``
 (docs/results/fleet.md, "Room to decide").
 """
 

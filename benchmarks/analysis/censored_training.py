@@ -16,7 +16,7 @@ and scored on the same ID and OOD pads (mean over runs of the per-run RUL RMSE, 
 ``brakewear evaluate``). Prints one table per seed and the ratio of each row to
 run-to-failure [target: censored with volume <= 1.2x].
 
-Run: ``.venv/bin/python benchmarks/censored_training.py [--seeds 0 1] [--json out.json]``.
+Run: ``.venv/bin/python benchmarks/analysis/censored_training.py [--seeds 0 1] [--json out.json]``.
 """
 
 from __future__ import annotations

@@ -8,8 +8,8 @@ how well they learned), each reading the base rule's duties as it does (``base_i
 the rule decides too, every time); then each decides every recorded state, timed alone
 (the env's step and the RUL wrapper are not counted), one thread.
 
-Run: ``.venv/bin/python benchmarks/fleet_decision_speed.py out/default-net-twin --predictor
-twin``
+Run: ``.venv/bin/python benchmarks/analysis/distilled_decision_speed.py out/default-net-twin
+--predictor twin``
 """
 
 from __future__ import annotations

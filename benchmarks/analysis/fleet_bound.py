@@ -15,7 +15,7 @@ Also printed: the law-of-large-numbers check (the pads' realised hot RUL, simula
 their streams, against the expected RUL the model uses), the one approximation of the
 bound.
 
-Run: ``.venv/bin/python benchmarks/fleet_bound.py [--episodes 10] [--iterations 80]``
+Run: ``.venv/bin/python benchmarks/analysis/fleet_bound.py [--episodes 10] [--iterations 80]``
 """
 
 from __future__ import annotations
@@ -32,8 +32,7 @@ from agents.fleet.policies.lagrangian_search import search
 from agents.fleet.policies.priced import PricedPolicy
 from agents.fleet.policies.rules import opportunistic_rule
 from agents.fleet.policies.view import FleetLayout
-from agents.fleet.settings import SMALL_FLEET
-from brake_env.env.fleet.config import FleetConfig
+from brake_env.env.fleet.config import SMALL_FLEET, FleetConfig
 from brake_env.env.fleet.env import BrakeWearFleetEnv
 from brake_env.env.fleet.wrappers import ExpectedRULObservation
 

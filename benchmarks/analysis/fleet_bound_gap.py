@@ -14,7 +14,7 @@ the bound's price search has converged.
    beyond the initial stock; ``BoundModel.build(orders=True)``), and the bracket of part 1
    is printed again against it.
 
-Run: ``.venv/bin/python benchmarks/fleet_bracket.py out/default-net-twin/costs.json
+Run: ``.venv/bin/python benchmarks/analysis/fleet_bound_gap.py out/default-net-twin/costs.json
 [--iterations 250] [--orders]``
 """
 
@@ -37,20 +37,20 @@ def best_row(study: dict[str, Any]) -> dict[str, Any]:
     """The study's row with the lowest mean net cost (a bound is not a policy)."""
     rows = [r for r in study["rows"] if "episodes" in r and "model_terms" in r["episodes"]]
     if not rows:
-        raise SystemExit("fleet_bracket: the study has no rows with episodes' model terms")
+        raise SystemExit("fleet_bound_gap: the study has no rows with episodes' model terms")
     return min(rows, key=lambda r: float(np.mean(r["episodes"]["net"])))
 
 
 def split(study: dict[str, Any]) -> list[list[str]]:
     """The best policy's gap to the bound, whole and by part, with paired intervals."""
     if "bound" not in study:
-        raise SystemExit("fleet_bracket: the study ran no bound (--bound-iterations)")
+        raise SystemExit("fleet_bound_gap: the study ran no bound (--bound-iterations)")
     row = best_row(study)
     ep = row["episodes"]
     net, cost, model = (np.asarray(ep[k], dtype=float) for k in ("net", "cost", "model_terms"))
     low = np.asarray(study["bound"]["episodes"], dtype=float)
     if low.shape != net.shape:
-        raise SystemExit(f"fleet_bracket: {len(low)} bound episodes, {len(net)} of the policy")
+        raise SystemExit(f"fleet_bound_gap: {len(low)} bound episodes, {len(net)} of the policy")
     spares = cost - model  # order + holding: terms the bound does not have
     zero = np.zeros_like(net)
 

@@ -5,7 +5,7 @@ how many episodes a tuning run would need for a standard error of 0.05 on each. 
 evidence for tuning on the net cost at the default fleet (``fleet-study --objective net``):
 a tuning objective whose episodes swing more needs more of them to rank two rules.
 
-Run: ``.venv/bin/python benchmarks/fleet_objective_noise.py out/fleet-study/costs.json``
+Run: ``.venv/bin/python benchmarks/analysis/fleet_episode_noise.py out/fleet-study/costs.json``
 """
 
 from __future__ import annotations

@@ -4,8 +4,8 @@ another): the difference and ratio of their headline and net costs, with paired 
 intervals. The episodes must be the same seeds (same ``--size``, ``--shifts`` and env
 code): the script refuses otherwise.
 
-Run: ``.venv/bin/python benchmarks/fleet_pair.py A/costs.json "oracle/rollout on best
-combination" B/costs.json "oracle/best combination"``
+Run: ``.venv/bin/python benchmarks/analysis/fleet_paired_difference.py A/costs.json
+"oracle/rollout on best combination" B/costs.json "oracle/best combination"``
 """
 
 from __future__ import annotations
@@ -29,16 +29,17 @@ def episodes(path: str, name: str) -> tuple[dict[str, Any], dict[str, Any]]:
         if (r["predictor"], r["policy"]) == (predictor, policy):
             return r["episodes"], s["config"]
     have = [f"{r['predictor']}/{r['policy']}" for r in s["rows"]]
-    raise SystemExit(f"fleet_pair: no row {name!r} in {path}; rows are {have}")
+    raise SystemExit(f"fleet_paired_difference: no row {name!r} in {path}; rows are {have}")
 
 
 def compare(a: tuple[str, str], b: tuple[str, str]) -> list[list[str]]:
     (ea, ca), (eb, cb) = episodes(*a), episodes(*b)
     for key in ("size", "shifts"):
         if ca[key] != cb[key]:
-            raise SystemExit(f"fleet_pair: {key} differs: {ca[key]} and {cb[key]}")
+            raise SystemExit(f"fleet_paired_difference: {key} differs: {ca[key]} and {cb[key]}")
     if ea["seed"] != eb["seed"]:
-        raise SystemExit(f"fleet_pair: the episodes differ: seeds {ea['seed']} and {eb['seed']}")
+        seeds = f"seeds {ea['seed']} and {eb['seed']}"
+        raise SystemExit(f"fleet_paired_difference: the episodes differ: {seeds}")
     out = [["figure", f"{a[1]}", f"{b[1]}", "difference, 95%", "ratio, 95%"]]
     for figure in ("cost", "net"):
         x, y = np.asarray(ea[figure]), np.asarray(eb[figure])

@@ -22,7 +22,7 @@ Run (the small fleet, every heuristic with the oracle's RUL; ~5 min on 2 cores):
         threshold time-to-window "(n, N)" "capacity greedy" "duty rule" "(s, S)" standby \\
         "best combination" --trials 10 --trials-best 30 --tune-episodes 2 \\
         --eval-episodes 10
-    .venv/bin/python benchmarks/fleet_room.py out/room/costs.json [--predictor oracle] \\
+    .venv/bin/python benchmarks/analysis/fleet_room.py out/room/costs.json [--predictor oracle] \\
         [--markdown]
 """
 

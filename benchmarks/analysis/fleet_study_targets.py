@@ -20,7 +20,7 @@ Issue 30's, where the study ran the planners (``--rollout``, ``--bound-iteration
 The Ray target (2 workers >= 1.7x one process) is measured by ``benchmarks/bench_ray.py
 --only fleet``.
 
-Run: ``.venv/bin/python benchmarks/fleet_targets.py out/fleet-study/costs.json``
+Run: ``.venv/bin/python benchmarks/analysis/fleet_study_targets.py out/fleet-study/costs.json``
 """
 
 from __future__ import annotations

@@ -5,8 +5,8 @@ trials are the study's own run), prints the best tuning objective after each qua
 runs the rule tuned at ``--trials`` and at ``2 x --trials`` on the evaluation episodes
 (paired interval of their difference).
 
-Run: ``.venv/bin/python benchmarks/fleet_tuning.py [--predictor oracle] [--trials 90]
-[--tune-episodes 3] [--objective cost]``
+Run: ``.venv/bin/python benchmarks/analysis/fleet_tuning_convergence.py [--predictor oracle]
+[--trials 90] [--tune-episodes 3] [--objective cost]``
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """The twin's RUL RMSE on the paper's ID and OOD runs with events dropped at random, against
 the full logs (issue 22; docs/results/prognostics.md, "Gaps in a log").
 
-    .venv/bin/python scripts/gap_rmse.py [--seed 0] [--drops 0.01,0.1,0.5] [--trials 1]
+    .venv/bin/python benchmarks/analysis/gap_rmse.py [--seed 0] [--drops 0.01,0.1,0.5] [--trials 1]
 
 The paper's dataset (10 training, 10 in-distribution and 10 out-of-distribution runs, the
 default atlas) is simulated with ``--seed``; the twin is fitted on the full training runs.
@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 
 from brake_env.data.datasets import DatasetSpec, make_dataset
 from brake_env.env.atlases import default_atlas

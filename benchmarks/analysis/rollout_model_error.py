@@ -14,7 +14,7 @@ state at a time, and the planner's decision time.
 3. **Decision time.** ``RolloutPolicy.act`` per shift at the default settings, over the
    first shifts of an episode.
 
-Run: ``.venv/bin/python benchmarks/fleet_rollout.py [--episodes 4] [--horizon 28]``
+Run: ``.venv/bin/python benchmarks/analysis/rollout_model_error.py [--episodes 4] [--horizon 28]``
 """
 
 from __future__ import annotations

@@ -5,7 +5,7 @@ simulated-ahead true RUL (brake_env/env/fleet/route_accuracy.py).
 Targets (issue 31): the twin's hot-route RMSE within 10% of life at every age past 20% of
 life; its 90% interval covering 85-95%.
 
-Run: ``.venv/bin/python benchmarks/route_rul_accuracy.py [--episodes 2] [--shifts 730]
+Run: ``.venv/bin/python benchmarks/analysis/route_rul_accuracy.py [--episodes 2] [--shifts 730]
 [--predictors physics,data,window,twin] [--csv out.csv]``. The predictors are fitted on 10
 simulated training pads (seed 0), as ``brakewear evaluate`` fits them on the paper's 10.
 """

@@ -2,7 +2,7 @@
 ``costs.json`` that ``brakewear compare`` wrote: each target with its measured figure and
 interval, met or missed. The product reports results; the targets are ours, so they live here.
 
-Run: ``.venv/bin/python benchmarks/cost_targets.py out/compare/costs.json``
+Run: ``.venv/bin/python benchmarks/analysis/single_pad_targets.py out/compare/costs.json``
 """
 
 from __future__ import annotations

@@ -2,7 +2,7 @@
 the reader must either load it with that meaning or raise one EventLogError naming
 the file and, where a cell is at fault, its column and row.
 
-Used by ``scripts/fuzz_reader.py`` (which prints the counts) and
+Used by ``scripts/probes/fuzz_reader.py`` (which prints the counts) and
 ``tests/brake_env/data/test_reader_fuzz.py``.
 """
 

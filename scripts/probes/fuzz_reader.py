@@ -1,7 +1,7 @@
 """Counts of the event-log reader's outcomes on generated malformed logs
 (docs/schema.md), by format and by mutation: the figures behind the fuzz test.
 
-    .venv/bin/python scripts/fuzz_reader.py [--cases 1000] [--seed 0]
+    .venv/bin/python scripts/probes/fuzz_reader.py [--cases 1000] [--seed 0]
 
 Outcomes: ``loaded-intact`` (the values equal the intended ones), ``loaded-prefix`` (a CSV
 cut exactly at a line end: a valid, shorter log that no file-level check can tell from a

@@ -1,7 +1,7 @@
 """Kill ``brakewear simulate``, ``evaluate`` and ``predict`` at random points and show that
 nothing later trusts a partial file (docs/schema.md: nothing lost, nothing half-written).
 
-    .venv/bin/python scripts/kill_test.py [--kills 30] [--seed 0] [--work DIR]
+    .venv/bin/python scripts/probes/kill_test.py [--kills 30] [--seed 0] [--work DIR]
 
 Each command runs in its own process group and gets SIGKILL after a random delay within its
 unkilled run time (measured first, lowered when a run under less load finishes before its
@@ -37,7 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
 from brake_env.output import Manifest, ManifestError  # noqa: E402

@@ -1,4 +1,4 @@
-"""The probe's areas for the rest of issue 44 (scripts/probe_trust.py runs them after its
+"""The probe's areas for the rest of issue 44 (scripts/probes/probe_trust.py runs them after its
 own; docs/schema.md, "Probe of bad inputs"): units keyed to the settings that made them,
 every numeric input of the Lagrangian bound, the rollout planner, the price-directed policy,
 the route RUL's volumes, the fleet commands' parser, ``--atlas``, fleet-distil's study

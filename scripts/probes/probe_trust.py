@@ -1,7 +1,7 @@
 """Bad inputs a careful user tries, and how each ends, every answer compared with a known one
 (issues 22 and 29; docs/schema.md, "Probe of bad inputs").
 
-    .venv/bin/python scripts/probe_trust.py [--seed 0] [--verbose]
+    .venv/bin/python scripts/probes/probe_trust.py [--seed 0] [--verbose]
 
 Areas: fit, predict and gaps in a log (the library and ``brakewear`` itself), saved
 models, BrakeWear-v0 and its RUL wrapper, BrakeWearFleet-v0 (its small fleet), its
@@ -35,7 +35,7 @@ three columns; the script exits 1 otherwise.
 Areas added for issue 44 (:func:`trust_cases`): files a unit store must never move or
 delete (a user's file named like a unit, copies set aside in ``damaged/``), output marks
 (written when a command starts, held while it runs, unreadable ones refused), and hostile
-pad ids in CSV cells and figure labels; and in scripts/probe_inputs.py: units keyed to the
+pad ids in CSV cells and figure labels; and in scripts/probes/probe_inputs.py: units keyed to the
 settings that made them (copied from a ``--seed 1`` or ``--objective net`` study, under an
 edited settings.json), every numeric input of the Lagrangian bound, the rollout planner and
 the price-directed policy, the route RUL's volumes, the fleet commands' parser, ``--atlas``,
@@ -95,8 +95,8 @@ from brake_env.prognostics.registry import make_predictor
 from twin import DigitalTwin
 
 try:  # the areas of issue 44's second part (a module of their own: this one is long)
-    from scripts.probe_inputs import input_cases
-except ImportError:  # run as a script: scripts/ is on the path, the repository root may not be
+    from scripts.probes.probe_inputs import input_cases
+except ImportError:  # run as a script: scripts/probes/ is on the path, the root may not be
     from probe_inputs import input_cases  # type: ignore[no-redef]
 
 CLEAR = (ValueError, TypeError, RuntimeError, FileNotFoundError)

@@ -1,4 +1,5 @@
-"""Tests of the scripts under ``benchmarks/`` (not a package: each is loaded by path)."""
+"""Tests of the scripts under ``benchmarks/`` and ``benchmarks/analysis/`` (not a package: each
+is loaded by path)."""
 
 from __future__ import annotations
 
@@ -11,9 +12,12 @@ BENCHMARKS = Path(__file__).resolve().parents[2] / "benchmarks"
 
 
 def load_script(name: str) -> ModuleType:
-    """``benchmarks/<name>.py`` as a module (registered in ``sys.modules``: dataclasses look
-    their module up)."""
-    spec = importlib.util.spec_from_file_location(name, BENCHMARKS / f"{name}.py")
+    """``benchmarks/<name>.py``, else ``benchmarks/analysis/<name>.py``, as a module
+    (registered in ``sys.modules``: dataclasses look their module up)."""
+    path = BENCHMARKS / f"{name}.py"
+    if not path.exists():
+        path = BENCHMARKS / "analysis" / f"{name}.py"
+    spec = importlib.util.spec_from_file_location(name, path)
     assert spec is not None and spec.loader is not None
     module = importlib.util.module_from_spec(spec)
     sys.modules[spec.name] = module

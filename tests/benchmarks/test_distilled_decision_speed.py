@@ -1,4 +1,4 @@
-"""benchmarks/fleet_decision_speed.py on a tiny study: the planner and both distilled
+"""benchmarks/analysis/distilled_decision_speed.py on a tiny study: the planner and both distilled
 policies decide every recorded state, and each printed ratio is the planner's time over
 that policy's."""
 
@@ -20,7 +20,7 @@ def test_every_policy_decides_every_recorded_state(atlas, tmp_path, capsys) -> N
         eval_episodes=2, n_train_runs=2,
     )  # fmt: skip
     run_fleet_study(study, atlas, tmp_path, Runner(0), n_resamples=50)
-    got = load_script("fleet_decision_speed").main(
+    got = load_script("distilled_decision_speed").main(
         [str(tmp_path), "--predictor", "oracle", "--episodes", "2", "--epochs", "1"]
     )
     assert got["states"] == 2 * 16

@@ -1,4 +1,5 @@
-"""benchmarks/fleet_bracket.py on a made-up study: the best row, the gap and its parts."""
+"""benchmarks/analysis/fleet_bound_gap.py on a made-up study: the best row, the gap and its
+parts."""
 
 from __future__ import annotations
 
@@ -15,7 +16,7 @@ def _row(policy: str, net: list[float], spares: float) -> dict:
 
 
 def test_the_gap_of_the_best_row_splits_into_spares_and_the_rest() -> None:
-    fb = load_script("fleet_bracket")
+    fb = load_script("fleet_bound_gap")
     study = {"rows": [_row("rule", [3.0, 3.0, 3.0], 0.2), _row("planner", [2.0, 2.5, 1.5], 0.1)],
              "bound": {"episodes": [1.5, 1.5, 1.5]}}  # fmt: skip
     got = {r[0].strip(): r[1] for r in fb.split(study)}

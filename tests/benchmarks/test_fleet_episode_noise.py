@@ -1,4 +1,4 @@
-"""benchmarks/fleet_objective_noise.py on a made-up fleet ``costs.json``."""
+"""benchmarks/analysis/fleet_episode_noise.py on a made-up fleet ``costs.json``."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ from tests.benchmarks import load_script
 
 
 def test_each_row_s_spread_and_the_episodes_a_tuning_run_needs():
-    module = load_script("fleet_objective_noise")
+    module = load_script("fleet_episode_noise")
     episodes = {"cost": [2.0, 4.0, 3.0, 5.0], "net": [2.0, 2.1, 1.9, 2.0]}
     s = {"rows": [{"predictor": "oracle", "policy": "rule", "episodes": episodes}]}
     _head, cost, net = module.rows(s)

@@ -1,4 +1,5 @@
-"""benchmarks/fleet_pair.py on made-up studies: paired figures, refused mismatches."""
+"""benchmarks/analysis/fleet_paired_difference.py on made-up studies: paired figures,
+refused mismatches."""
 
 from __future__ import annotations
 
@@ -18,7 +19,7 @@ def _study(path: Path, policy: str, cost: list[float], seeds: list[int]) -> str:
 
 
 def test_two_studies_are_paired_episode_by_episode_or_refused(tmp_path):
-    fp = load_script("fleet_pair")
+    fp = load_script("fleet_paired_difference")
     a = _study(tmp_path / "a.json", "x", [3.0, 2.0, 4.0], [0, 1, 2])
     b = _study(tmp_path / "b.json", "y", [3.5, 2.5, 4.5], [0, 1, 2])
     got = fp.compare((a, "oracle/x"), (b, "oracle/y"))

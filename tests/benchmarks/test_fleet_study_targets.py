@@ -1,5 +1,5 @@
-"""benchmarks/fleet_targets.py: each target rule on made-up fleet ``costs.json`` contents
-where it passes and where it fails."""
+"""benchmarks/analysis/fleet_study_targets.py: each target rule on made-up fleet
+``costs.json`` contents where it passes and where it fails."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ from typing import Any
 
 from tests.benchmarks import load_script
 
-ft = load_script("fleet_targets")
+ft = load_script("fleet_study_targets")
 
 
 def iv(point: float, low: float, high: float) -> dict[str, float]:

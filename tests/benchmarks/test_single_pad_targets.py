@@ -1,5 +1,5 @@
-"""benchmarks/cost_targets.py: each target rule on made-up ``costs.json`` contents where it
-passes and where it fails, and the script's printout."""
+"""benchmarks/analysis/single_pad_targets.py: each target rule on made-up ``costs.json``
+contents where it passes and where it fails, and the script's printout."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import pytest
 
 from tests.benchmarks import load_script
 
-ct = load_script("cost_targets")
+ct = load_script("single_pad_targets")
 
 
 def est(value: float, low: float, high: float) -> dict[str, float]:

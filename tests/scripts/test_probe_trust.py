@@ -1,4 +1,4 @@
-"""scripts/probe_trust.py: each kind of check can fail. A few cases of each kind are run on
+"""scripts/probes/probe_trust.py: each kind of check can fail. A few cases of each kind are run on
 a tiny world; each passing answer's deliberately wrong version is rejected, and a case whose
 run returns that wrong answer comes out a "silent wrong answer"."""
 
@@ -12,7 +12,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from scripts import probe_trust as pt
+from scripts.probes import probe_trust as pt
 
 
 @pytest.fixture(scope="module")

@@ -14,7 +14,7 @@ same seeds (common random numbers): the headline cost, or the net cost (less the
 left at the episode's end, the figure the Lagrangian bound is on). On the default fleet the
 oracle's tuned best combination cost 2.41-5.68 over 20 episodes (sd 0.85), its net cost
 1.56-3.22 (sd 0.37): the net cost is the better-conditioned objective there
-(``benchmarks/fleet_objective_noise.py``, docs/results/fleet.md). Heuristics other than
+(``benchmarks/analysis/fleet_episode_noise.py``, docs/results/fleet.md). Heuristics other than
 the (s, S) rule and the combination keep the default reorder rule (s, S) = (2, 4); the
 (s, S) heuristic is the threshold with its reorder point and level tuned as well.
 

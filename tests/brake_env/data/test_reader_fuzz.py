@@ -1,14 +1,14 @@
 """The event-log reader against generated malformed logs (docs/schema.md).
 
-Each of 240 logs (half CSV, half Parquet; ``scripts/fuzz_logs.py``) either loads with the meaning
-it was written with, or raises one EventLogError naming the file and, where one cell is at
-fault, its column, row and CSV line. Valid variants (blank lines, quoted fields over two
+Each of 240 logs (half CSV, half Parquet; ``scripts/probes/fuzz_logs.py``) either loads with
+the meaning it was written with, or raises one EventLogError naming the file and, where one
+cell is at fault, its column, row and CSV line. Valid variants (blank lines, quoted fields over two
 lines, BOM, CRLF, interleaved runs, NaN text in a sensor channel...) must load.
 """
 
 from __future__ import annotations
 
-from scripts.fuzz_logs import generate, judge, run_all
+from scripts.probes.fuzz_logs import generate, judge, run_all
 
 N_CASES = 240
 
@@ -34,7 +34,7 @@ def test_the_judge_catches_a_reader_that_lets_bad_logs_through(tmp_path, monkeyp
     """A reader that accepts anything fails the judge: the fuzz test can fail."""
     import pandas as pd
 
-    import scripts.fuzz_logs as fl
+    import scripts.probes.fuzz_logs as fl
 
     monkeypatch.setattr(fl, "read_event_log", lambda p: pd.DataFrame({"x": [1]}))
     bad = next(c for c in generate(40, seed=1) if c.meaning is None)

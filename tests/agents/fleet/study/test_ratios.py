@@ -8,7 +8,7 @@ import numpy as np
 
 from agents.fleet.study.run import _planner_lines
 from agents.fleet.study.summary import to_bound
-from benchmarks import fleet_targets as ft
+from benchmarks.analysis import fleet_study_targets as ft
 
 
 def rows(net: list[float]) -> list[dict]:

@@ -231,14 +231,14 @@ def test_the_ranking_is_on_the_study_s_objective():
 
 
 def test_fleet_room_reads_the_study_s_episodes(study):
-    """benchmarks/fleet_room.py pairs the rows' episodes itself: its gaps equal the study's,
-    and the reference's forecast is there to check against its realised cost."""
+    """benchmarks/analysis/fleet_room.py pairs the rows' episodes itself: its gaps equal the
+    study's, and the reference's forecast is there to check against its realised cost."""
     import importlib.util
     from pathlib import Path
 
     from agents.fleet.evaluation.costs import paired_interval
 
-    script = Path(__file__).resolve().parents[4] / "benchmarks" / "fleet_room.py"
+    script = Path(__file__).resolve().parents[4] / "benchmarks" / "analysis" / "fleet_room.py"
     spec = importlib.util.spec_from_file_location("fleet_room", script)
     assert spec is not None and spec.loader is not None
     room = importlib.util.module_from_spec(spec)

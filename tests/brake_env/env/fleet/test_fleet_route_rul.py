@@ -52,7 +52,7 @@ def test_twin_route_rul_agrees_with_the_true_rul_after_any_duty(atlas, twin):
     """New pads run the ramp, the drifts, or both in turn, for 70 shifts (55%, 10% and
     ~30% of their hot life): the twin's RUL on each route is within 10% of that route's
     life of the simulated-ahead truth, its interval around it, and the mild one longer
-    (coverage is measured by benchmarks/route_rul_accuracy.py)."""
+    (coverage is measured by benchmarks/analysis/route_rul_accuracy.py)."""
     env = FleetRULObservation(
         BrakeWearFleetEnv(atlas=atlas, **{**SMALL, "episode_shifts": 80}), twin
     )
