@@ -34,7 +34,6 @@ from collections.abc import Sequence
 import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike, NDArray
-from scipy.stats import norm
 
 from brake_env.prognostics.duty import DutyClocks, route_rul
 from brake_env.prognostics.events import RULEstimate
@@ -57,6 +56,8 @@ def p_fail_before(lower: F64, upper: F64, events: ArrayLike, level: float = LEVE
         events: (pads,) or (pads, horizons), >= 0; 0 gives 0, NaN (unknown) gives NaN.
         level: The interval's coverage, in (0, 1).
     """
+    from scipy.stats import norm  # heavy: only where a probability is asked for
+
     if not 0.0 < level < 1.0:
         raise ValueError(f"p_fail_before: level must be in (0, 1), got {level}")
     lo = np.maximum(np.asarray(lower, dtype=np.float64), MIN_EVENTS)

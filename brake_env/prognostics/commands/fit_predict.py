@@ -44,6 +44,7 @@ from brake_env.cli.common import (
     out_dir,
     read_atlas,
 )
+from brake_env.cli.predict_planner import PlannerSettings, add_planner_args, planner_settings
 from brake_env.csv_safe import write_csv
 from brake_env.data.datasets import find_logs
 from brake_env.data.plausibility import warn_fitted, warn_implausible
@@ -108,6 +109,7 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
         " interrupted predict resumes from the units saved in OUT/units/ (the estimates do"
         " not depend on where units run; another chunking moves them by rounding, ~1e-13)",
     )
+    add_planner_args(p)
     add_runner_args(p)
     add_strict_arg(p)
     p.set_defaults(func=cmd_predict)
@@ -200,6 +202,7 @@ def cmd_predict(args: argparse.Namespace) -> pd.DataFrame:
     header = read_header(args.model)
     atlas_of = _atlas_loader(header, args)  # checks the atlas hash, builds nothing yet
     log = read_event_log(args.log)
+    planner = planner_settings(log, args)  # its flags checked before the long work
     out = Path(args.out)
     if out.exists() and not out.is_dir():
         raise ValueError(f"--out {out}: exists and is not a directory")
@@ -214,7 +217,8 @@ def cmd_predict(args: argparse.Namespace) -> pd.DataFrame:
         finally:
             predict_units.forget()
         checks = _checks(pred, log, header, args.strict)
-        fleet = _finish(out, (traces, rows), (missing, checks), pred, (header, args))
+        context = (header, args, planner, atlas)
+        fleet = _finish(out, (traces, rows), (missing, checks), pred, context)
         store.discard()  # its own files only: anything else in OUT/units/ stays
     print(table(_display_rows(fleet)))
     print(
@@ -240,11 +244,13 @@ def _finish(
     outputs: tuple[pd.DataFrame, pd.DataFrame],
     found: tuple[dict[str, list[str]], dict[str, Any]],
     pred: Predictor,
-    context: tuple[dict[str, Any], argparse.Namespace],
+    context: tuple[dict[str, Any], argparse.Namespace, PlannerSettings, Atlas],
 ) -> pd.DataFrame:
-    """Write the outputs of the units' ``(traces, rows)``; the table."""
-    (traces, rows), (header, args), (missing, checks) = outputs, context, found
+    """Write the outputs of the units' ``(traces, rows)``; the table, the planner's
+    columns appended (:mod:`brake_env.cli.predict_planner`)."""
+    (traces, rows), (header, args, planner, atlas), (missing, checks) = outputs, context, found
     fleet = predict_units.sort_table(rows, missing)
+    fleet, planned = planner.columns(fleet, atlas, pred.interval_level)
     warnings = [
         f"pad {run}: {', '.join(ch)} missing at every event; {pred.name} cannot use"
         f" {'them' if len(ch) > 1 else 'it'} for this pad (a predictor that needs it gives"
@@ -253,8 +259,11 @@ def _finish(
     ]
     for w in warnings:
         print(f"predict: warning: {w}", file=sys.stderr)
+    if planner.note():  # not a warning: the log says nothing of time, nothing is wrong
+        print(f"predict: note: {planner.note()}", file=sys.stderr)
     warnings += [f"{at}: {c['message']}" for at, c in checks.items() if c.get("warns")]
-    _write_outputs(out, fleet, traces, pred, (header, checks), args, warnings=warnings)
+    info = {"planner_units": planned, "warnings": warnings}
+    _write_outputs(out, fleet, traces, pred, (header, checks), args, info=info)
     return fleet
 
 
@@ -350,8 +359,9 @@ def _write_outputs(
     model: tuple[dict[str, Any], dict[str, Any]],
     args: argparse.Namespace,
     *,
-    warnings: list[str],
+    info: dict[str, Any],
 ) -> None:
+    """``info``: ``warnings`` and ``planner_units`` (the planner columns' settings)."""
     header, checks = model
     write_csv(fleet, out / "fleet.csv")  # spreadsheet-safe: a pad id is never a formula
     doc = {
@@ -361,8 +371,9 @@ def _write_outputs(
         "atlas_hash": header["atlas_hash"],
         "effects": list((header.get("atlas_spec") or {}).get("effects") or []),
         "interval_level": pred.interval_level,
-        "warnings": warnings,
+        "warnings": info["warnings"],
         "self_check": checks,
+        "planner_units": info["planner_units"],
         "pads": [
             {**r, "missing_channels": [c for c in r["missing_channels"].split(";") if c]}
             for r in fleet.to_dict("records")
