@@ -11,6 +11,7 @@ from typing import Any
 from agents.fleet.commands import benchmark
 from agents.fleet.settings import (
     DEFAULT_HEURISTICS,
+    FIXED_INTERVAL,
     HEURISTICS,
     OBJECTIVES,
     check_model,
@@ -72,8 +73,9 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
     )  # fmt: skip
     f.add_argument("--shifts", type=int_range(2, 100_000), default=365, help="an episode")
     f.add_argument(
-        "--predictors", type=predictor_list, default=predictor_names(),
-        help="comma-separated; NAME+effect: NAME made on the physics with the --effect(s)",
+        "--predictors", type=predictor_list, default=(*predictor_names(), FIXED_INTERVAL),
+        help="comma-separated; NAME+effect: NAME made on the physics with the --effect(s);"
+        f" {FIXED_INTERVAL}: replacement by pad age alone, the baseline of the money table",
     )  # fmt: skip
     f.add_argument(
         "--model", action="append", type=model_arg, default=[], metavar="NAME=DIR",

@@ -162,3 +162,22 @@ def test_a_user_s_model_is_ranked_and_the_money_adds_up(tmp_path, capsys, files)
     assert "EUR / year" in text and "Cost in EUR per vehicle-shift" in text
     settings = json.loads((out / "units" / "settings.json").read_text())
     assert re.search(model_checksum(files["mine"]), json.dumps(settings))
+
+
+def test_a_16_vehicle_fleet_file_with_a_user_s_model_completes(tmp_path, files):
+    """Issue 42's case: 16 trucks of a user's file, the user's model, a small budget."""
+    fleet = tmp_path / "sixteen.toml"
+    fleet.write_text(FLEET.replace("n_vehicles = 3", "n_vehicles = 16")
+                     .replace("hot_need = 1", "hot_need = 8").replace("mild_need = 1",
+                                                                      "mild_need = 5"))  # fmt: skip
+    out = tmp_path / "study"
+    budget = [*BUDGET[2:], "--shifts", "20"]  # BUDGET less its own --shifts
+    code = main(["fleet-study", "--fleet", str(fleet), "--model", f"mine={files['mine']}",
+                 "--predictors", "oracle", "--atlas", str(files["atlas"]), *budget,
+                 "--out", str(out)])  # fmt: skip
+    assert code == 0
+    s = json.loads((out / "costs.json").read_text())
+    assert s["config"]["fleet"]["n_vehicles"] == 16
+    assert [r["predictor"] for r in s["rows"]] == ["oracle", "mine"]
+    for r in s["rows"]:
+        assert r["cost_per_year"] == pytest.approx(r["cost"] * 16 * 700, rel=1e-12)
