@@ -72,22 +72,7 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
         " reference) or a fleet file (TOML; docs/benchmark.md); --size is its old name",
     )  # fmt: skip
     f.add_argument("--shifts", type=int_range(2, 100_000), default=365, help="an episode")
-    f.add_argument(
-        "--predictors", type=predictor_list, default=(*predictor_names(), FIXED_INTERVAL),
-        help="comma-separated; NAME+effect: NAME made on the physics with the --effect(s);"
-        f" {FIXED_INTERVAL}: replacement by pad age alone, the baseline of the money table",
-    )  # fmt: skip
-    f.add_argument(
-        "--model", action="append", type=model_arg, default=[], metavar="NAME=DIR",
-        help="a model of your own (brakewear fit --out DIR), ranked beside the predictors"
-        " under NAME: loaded, not fitted; fitted on the study's atlas (repeatable)",
-    )  # fmt: skip
-    f.add_argument(
-        "--effect", action="append", default=[], metavar="NAME:P=V[,...]",
-        help="the fleet's pads (and the predictors' training pads) wear with this unmodelled"
-        " effect (the syntax of simulate --effect; repeatable; in-event and sensor effects);"
-        " the predictors are made on the nominal physics, NAME+effect on the effect's",
-    )  # fmt: skip
+    _add_predictor_args(f)
     f.add_argument(
         "--heuristics", nargs="+", choices=HEURISTICS, default=DEFAULT_HEURISTICS, metavar="NAME",
         help="heuristics to tune, each quoted",
@@ -117,6 +102,26 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
     f.set_defaults(func="agents.fleet.commands.cli:cmd_fleet_study")
     _register_distil(sub)
     benchmark.register(sub)
+
+
+def _add_predictor_args(f: argparse.ArgumentParser) -> None:
+    """The predictors ranked: the registry's, a user's saved models, and the effects."""
+    f.add_argument(
+        "--predictors", type=predictor_list, default=(*predictor_names(), FIXED_INTERVAL),
+        help="comma-separated; NAME+effect: NAME made on the physics with the --effect(s);"
+        f" {FIXED_INTERVAL}: replacement by pad age alone, the baseline of the money table",
+    )  # fmt: skip
+    f.add_argument(
+        "--model", action="append", type=model_arg, default=[], metavar="NAME=DIR",
+        help="a model of your own (brakewear fit --out DIR), ranked beside the predictors"
+        " under NAME: loaded, not fitted; fitted on the study's atlas (repeatable)",
+    )  # fmt: skip
+    f.add_argument(
+        "--effect", action="append", default=[], metavar="NAME:P=V[,...]",
+        help="the fleet's pads (and the predictors' training pads) wear with this unmodelled"
+        " effect (the syntax of simulate --effect; repeatable; in-event and sensor effects);"
+        " the predictors are made on the nominal physics, NAME+effect on the effect's",
+    )  # fmt: skip
 
 
 def _add_planner_args(f: argparse.ArgumentParser) -> None:

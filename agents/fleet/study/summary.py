@@ -9,6 +9,8 @@ seeds' mean costs, as rliable reports it, and its interval comes from a two-leve
 bootstrap that resamples the seeds and, paired with the heuristic's, the episodes
 (percentile intervals of the IQM, its difference from the heuristic and their ratio).
 A study with effects also compares every two predictors' best heuristics (``effect``).
+Every row's figures a year and ``money`` (the fleet file's currency; each predictor's value
+against the fixed interval and the oracle): :mod:`agents.fleet.study.money`.
 """
 
 from __future__ import annotations

@@ -4,10 +4,12 @@ interrupted study resumes.
 
 Units, each a module-level function of its arguments alone:
 
-- :func:`fit_unit`: one predictor fitted on freshly simulated training pads (not stored:
-  refitting is cheaper than keeping a fitted MLP; only predictors with work left are fit).
-  With effects (``config.effects``) the pads wear on the truth's atlas, as a real history
-  would, and the predictor is made on the nominal atlas (``NAME+effect``: on the truth's);
+- :func:`~agents.fleet.study.fits.fit_unit`: one predictor fitted on freshly simulated
+  training pads (not stored: refitting is cheaper than keeping a fitted MLP; only
+  predictors with work left are fit), or a user's saved model loaded (``config.models``,
+  :mod:`agents.fleet.study.fits`). With effects (``config.effects``) the pads wear on the
+  truth's atlas, as a real history would, and the predictor is made on the nominal atlas
+  (``NAME+effect``: on the truth's);
 - :func:`heuristic_unit`: one heuristic tuned with Optuna on the tuning episodes with one
   predictor's RUL, then run on the evaluation episodes;
 - :func:`reference_unit`: the perfect-information reference (the exact program of
