@@ -113,8 +113,8 @@ def report(summary: dict[str, Any], markdown: bool = False) -> str:
     ]
     bound = summary.get("bound")
     gap = ["net cost", "gap to bound (net)"] if bound else []
-    head = ["predictor", "policy", "cost", "tuning cost", "ratio to reference", *gap, "fits",
-            "failures"]  # fmt: skip
+    head = ["predictor", "policy", f"cost ({cur})", "tuning cost", "ratio to reference", *gap,
+            "fits", "failures"]  # fmt: skip
     rows = [head]
     best = summary["best_heuristic"]
     for r in summary["rows"]:

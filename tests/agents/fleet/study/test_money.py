@@ -16,7 +16,7 @@ import pytest
 from agents.fleet.evaluation.costs import paired_interval
 from agents.fleet.settings import FleetStudyConfig
 from agents.fleet.study.build import rul_env
-from agents.fleet.study.fits import fit_unit
+from agents.fleet.study.fits import check_models, fit_unit
 from agents.fleet.study.interval import AGE, AgeRULObservation
 from brake_env.cli.main import main
 from brake_env.env.fleet.route_rul import duty_clocks
@@ -99,6 +99,17 @@ def test_a_model_joins_the_predictors_and_keys_the_settings_to_its_checksum(file
     assert "models" not in FleetStudyConfig(predictors=("oracle",)).settings()
     back = FleetStudyConfig.from_dict(json.loads(json.dumps(dataclasses.asdict(c))))
     assert back == c
+
+
+def test_a_model_is_taken_on_the_study_s_atlas_or_the_truth_s_and_no_other(
+    files, atlas, small_atlas
+):
+    """A model fitted with the effects (on the truth's atlas) is the diagnosis fed back: taken;
+    on any other atlas it is refused naming both hashes."""
+    c = FleetStudyConfig(predictors=("oracle",), models=(("other", str(files["other"])),))
+    check_models(c, atlas, small_atlas)  # small_atlas standing for the truth's
+    with pytest.raises(ValueError, match=f"fitted with atlas {small_atlas.content_hash[:16]}"):
+        check_models(c, atlas, atlas)
 
 
 @pytest.mark.parametrize(
