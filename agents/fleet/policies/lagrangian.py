@@ -1,42 +1,55 @@
-"""A Lagrangian lower bound on the expected episode cost of any policy on BrakeWearFleet-v0,
-at any fleet size: the constraints that link the vehicles are priced, each vehicle then
-solves its own small program (Hawkins 2003; Adelman and Mersereau 2008; DESIGN.md 11).
+"""A Lagrangian lower bound on the expected episode cost of every non-anticipative policy on
+BrakeWearFleet-v0, at any fleet size: the constraints that link the vehicles are priced,
+each vehicle then solves its own small program (Hawkins 2003; Adelman and Mersereau 2008;
+DESIGN.md 11).
+
+**The claim.** For any prices in the boxes below, the vehicles' optimal costs plus the
+prices' constant are at most the expected cost of every policy whose decisions at a shift
+use only what has happened up to it (the pads' volumes and K included, whatever it
+observes of them), on the episode's start. Not of a clairvoyant policy: the env draws the
+breakdowns and the pads' conditions ahead, and one that read them could do better. With
+:meth:`BoundModel.relaxed` every idealisation below can only lower the cost, but one holds
+with a stated probability: each pad's realised wear stays within the slack with
+probability ``coverage`` (0.99 by default); for a pad outside it the bound is not proved.
 
 **Per-vehicle model.** A vehicle's state is ``(h, d)``: ``h`` its pad's expected RUL on
 the hot route in clock units of ``1 / units`` of a hot shift, rounded **up**
-(``h = ceil(rul_hot * units / events_per_shift)``), and ``d`` the shifts it is still down
-in the shop (``0 .. max(failure_repair_shifts, breakdown_repair_shifts)``). A hot shift
-uses exactly ``units`` units (the hot RUL is counted in hot events); a mild shift uses
-``mild_units = floor(units * r_min)``, ``r_min`` the least, over all atlas layers, of the
-mild route's wear per event over the hot route's; parking uses none. The pad fails in a
-shift that needs more units than it has. ``h`` is capped at ``episode_shifts * units``: a
-pad with more cannot fail within the episode, so the cap is exact.
+(``h = ceil(rul_hot * units / events_per_shift)``) plus ``slack`` units, and ``d`` the
+shifts it is still down in the shop (``0 .. max(failure_repair_shifts,
+breakdown_repair_shifts)``). A hot shift uses exactly ``units`` units (the hot RUL is
+counted in hot events); a mild shift ``mild_use[h]`` (:mod:`.lagrangian_wear`; without
+layers ``floor(units * r_min)``, ``r_min`` the least mild-over-hot wear ratio of the atlas's
+layers); parking none. The pad fails in a shift that needs more units than it has. ``h`` is
+capped at ``episode_shifts * units`` (a pad with more cannot fail within the episode), or
+with credit above every pad's life.
 
-**Idealisations** (each can only lower the cost, unless said):
+**Idealisations** (each can only lower the cost):
 
-- Rounding up and ``r_min`` rounded down: the model's pad never wears faster than the
-  expected wear of the real one (relaxation).
-- Wear per shift deterministic at its expectation (law of large numbers): an
-  **approximation**; the benchmark measures the realised life's spread around it (a
-  fraction of a shift) and ``slack_shifts`` gives every pad that much more life, which
-  makes the bound hold for every pad whose realised life exceeds its expected one by
-  less.
+- Rounding up, ``floor`` of the mild use, and the mild use by layer at most the pad's own
+  (``K >= k_cut``; a pad below the cut gets its life times ``boost``): the model's pad
+  never wears faster than the expected wear of the env's (:mod:`.lagrangian_wear`).
+- Wear per shift at its expectation plus ``slack`` units of life: the env's pad wears a
+  random amount; :func:`~.lagrangian_wear.realised_slack` sizes the slack so that a share
+  ``coverage`` of pads never runs ahead of its expected path by more (the one idealisation
+  that holds with a probability, not always). ``build`` alone (no slack) is the old
+  approximation at the expectation, kept for the policies that plan on it.
 - The current pad's K known once fitted: an information relaxation. New pads' ``h`` is
-  drawn from the exact distribution of ``ceil(life(K) * units / events_per_shift)`` under
-  the config's normal K (no quantile approximation; regime ``id`` only).
+  drawn from the exact distribution of their state under the config's normal K (regime
+  ``id`` only).
 - Spares always in stock, no order nor holding cost, no lead time (non-negative costs and
-  a constraint dropped: relaxation); every fit pays ``pad + labour`` (the headline cost
-  prices pads when fitted). With ``orders`` (:meth:`BoundModel.build`) a service also pays
-  ``order / max_order`` and the bound gives back that much for each pad of the initial
-  stock: every pad fitted was in stock at the start or arrived by an order of at most
-  ``max_order`` pads (nothing is in transit at the start), so the orders cost at least
-  ``order / max_order`` times the fits beyond the initial stock (relaxation: failures'
-  fits are not charged, holding still is not).
+  a constraint dropped); every fit pays ``pad + labour`` (the headline cost prices pads
+  when fitted). With ``orders`` a service also pays ``order / max_order`` and the bound
+  gives back that much for each pad of the initial stock: every pad fitted was in stock at
+  the start or arrived by an order of at most ``max_order`` pads (nothing is in transit at
+  the start), so the orders cost at least ``order / max_order`` times the fits beyond the
+  initial stock (failures' fits are not charged, holding still is not).
 - A failure costs ``damage + pad + labour`` and ``downtime`` for each of the
   ``failure_repair_shifts`` shifts out that fall within the episode; the vehicle is down
-  (cannot drive) for them, with a new pad: the env's rule, exactly.
-- Breakdowns as in the env: after a driven shift without failure, down for
-  ``breakdown_repair_shifts`` with probability ``breakdown_rate``.
+  (cannot drive) for them, with a new pad: the env's rule, exactly. Breakdowns as in the
+  env: after a driven shift without failure, down for ``breakdown_repair_shifts`` with
+  probability ``breakdown_rate``.
+- The schedule throws no pad life away beyond the rounding (a fit at any shift), and the
+  credit of the life left at the end is per unit of the model's ``h`` (at least the env's).
 
 **Prices** (per shift ``t``; :class:`Prices`). With ``c_h = costs.shortfall`` and
 ``c_m = costs.mild_shortfall``, for ``lam, mu >= 0``, ``mu <= c_m``, ``lam + mu <= c_h``
@@ -44,27 +57,29 @@ the shortfall cost ``f(n_h, n_m)`` is at least ``lam (N_h - n_h) + mu (N_h + N_m
 n_m)`` for all counts: a hot vehicle earns ``lam + mu``, a mild one ``mu`` (no production
 at a window). Bays: the env allows ``visits <= max(bays - down, 0)``; the tightest linear
 inequality that every (visits, down) of the env satisfies is ``visits + (bays / n) down
-<= bays`` (the line through (bays, 0) and (0, n)); ``visits + down <= bays`` is not valid
-(more vehicles can be down than there are bays), so a visit pays ``nu``, a shift down
+<= bays`` (the line through (bays, 0) and (0, n)), so a visit pays ``nu``, a shift down
 ``nu * bays / n``. Window crew: a fit at a window pays ``omega`` (at most
-``window_slots`` fits). For any prices in these boxes, the sum over vehicles of their
-optimal cost plus the prices' constant is a lower bound on every policy's expected cost
-(:func:`bound`); :mod:`.lagrangian_search` searches the prices.
+``window_slots`` fits). :func:`bound` adds the prices' constant;
+:mod:`.lagrangian_search` searches the prices.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.stats import norm
 
 from agents.fleet.policies.checks import bound_inputs, program_fits, real, whole
+from agents.fleet.policies.lagrangian_wear import (
+    mild_ratios,
+    mild_use,
+    new_pad_prob,
+    realised_slack,
+)
 from brake_env.env.fleet.config import FleetConfig
 from brake_env.env.fleet.routes import HOT as HOT_ROUTE
-from brake_env.env.fleet.routes import MILD as MILD_ROUTE
-from brake_env.env.fleet.routes import route_mean, route_wear_model
+from brake_env.env.fleet.routes import route_wear_model
 from brake_env.env.fleet.shop import HOT, MILD, PARK, SERVICE
 from brake_env.model.atlas import Atlas
 from brake_env.model.wear import WearModel
@@ -81,20 +96,22 @@ class BoundModel:
     Attributes:
         config: The env's config (costs, needs, bays, slots, horizon).
         units: Clock units per hot shift [-].
-        mild_units: Units a mild shift uses (at most its expected wear) [-].
+        mild_units: Units a mild shift uses where ``mild_use`` is None [-].
         new_prob: Probability that a new pad's state is ``h``, for h = 0..H [-].
         wear: The hot route's wear clock (RUL from volume and K); None in toy models.
         slack: Units added to every pad's state (its own and new pads'): a pad that
-            outlives its expected life by up to ``slack`` units (the law of large numbers
-            is not exact) is still within the model's.
+            outlives its expected life by up to ``slack`` units is still within the model's.
         credit: Terminal credit per unit of pad life left at the episode's end (0: none;
             :meth:`build` with ``credit=True`` prices it as
             :func:`agents.fleet.evaluation.costs.life_value` does). With it the bound is
             on the cost less that credit (:attr:`EpisodeCost.net`); the state's cap is
-            then above every pad's life, so the credit is never cut (a relaxation still:
-            rounding up gives more life, more credit).
+            then above every pad's life, so the credit is never cut.
         order_share: Order cost charged per service (``order / max_order`` with
             ``orders``; module docstring), given back for the initial stock.
+        mild_use: Units a mild shift uses from each state 0..H (by layer,
+            :func:`~.lagrangian_wear.mild_use`); None: ``mild_units`` everywhere.
+        k_cut: Pads of K below it enter with ``boost`` times their life [-].
+        boost: The life factor of pads below ``k_cut`` (>= 1) [-].
     """
 
     config: FleetConfig
@@ -105,48 +122,59 @@ class BoundModel:
     slack: int = 0
     credit: float = 0.0
     order_share: float = 0.0
+    mild_use: I64 | None = None
+    k_cut: float = 0.0
+    boost: float = 1.0
 
     @classmethod
     def build(
         cls, config: FleetConfig, atlas: Atlas, units: int = 20, slack_shifts: float = 0.0,
-        credit: bool = False, orders: bool = False,
+        credit: bool = False, orders: bool = False, layers: bool = False, k_cut_sd: float = 2.0,
     ) -> BoundModel:  # fmt: skip
         """The model of an env's config and atlas (K of the ``id`` regime), every pad
         given ``slack_shifts`` hot shifts more than its expected life; with ``credit``
         the pad life left at the end is credited (:attr:`credit`), with ``orders`` a
-        service pays its least share of an order (:attr:`order_share`)."""
+        service pays its least share of an order (:attr:`order_share`), with ``layers``
+        a mild shift wears by the pad's layer for K above ``k_mean - k_cut_sd * k_std``."""
         if config.regime != "id":
             raise ValueError(f"BoundModel: regime must be 'id', got {config.regime!r}")
         units = whole("BoundModel", "units", units, 1)
         slack_shifts = real("BoundModel", "slack_shifts", slack_shifts, 0.0)
-        wear = route_wear_model(atlas, HOT_ROUTE)
-        r_min = float(np.min(route_mean(atlas, MILD_ROUTE) / route_mean(atlas, HOT_ROUTE)))
+        k_cut_sd = real("BoundModel", "k_cut_sd", k_cut_sd, 0.0)
+        wear, ratios = route_wear_model(atlas, HOT_ROUTE), mild_ratios(atlas)
+        k_cut = max(config.k_mean - k_cut_sd * config.k_std, 0.0) if layers else 0.0
+        # a pad below the cut: any shifts it survives (>= r_min a mild one) fit in boost x
+        boost = max(1.0, np.floor(units * ratios.max() + 1e-9) / (units * ratios.min()))
+        boost = boost if k_cut > 0 else 1.0
         unit_events = config.events_per_shift / units
+        slack = int(np.ceil(slack_shifts * units))
         # a pad of K six sd below the mean (P ~ 1e-9) outlives the cap only without credit
         longest = wear.life(max(config.k_mean - 6 * config.k_std, 1e-3 * config.k_mean))
         H = config.episode_shifts * units
         if credit:
-            H = max(H, int(np.ceil(float(longest) / unit_events)) + units)
-        program_fits(config, H + int(np.ceil(slack_shifts * units)), units)
-        # P(ceil(life(K) / u) = j) = P(life_work / (j u) <= K < life_work / ((j - 1) u))
-        j = np.arange(H + 1, dtype=np.float64)
-        with np.errstate(divide="ignore"):
-            k_edge = wear.life_work / (j * unit_events)  # K at which the life is j units
-        cdf = norm.cdf(k_edge, config.k_mean, config.k_std)  # P(K < edge), decreasing in j
-        prob = np.zeros(H + 1)
-        prob[1:] = cdf[:-1] - cdf[1:]
-        prob[H] += cdf[H] - norm.cdf(0.0, config.k_mean, config.k_std)  # life >= the cap
-        prob /= prob.sum()  # (drops P(K <= 0) ~ 1e-23: no pad has it)
-        slack = int(np.ceil(slack_shifts * units))
-        if slack > 0:
-            prob = np.concatenate([np.zeros(slack), prob[:-slack]])
-            prob[-1] += 1.0 - prob.sum()
+            H = max(H, int(np.ceil(boost * float(longest) / unit_events)) + units + slack)
+        program_fits(config, H, units)
+        prob = new_pad_prob(wear, config, unit_events, H - slack, k_cut, boost)
+        prob = np.concatenate([np.zeros(slack), prob])
+        use = mild_use(wear, ratios, units, H, k_cut, unit_events) if k_cut > 0 else None
         per_unit = (
             (config.costs.pad + config.costs.labour) * unit_events / float(wear.life(config.k_mean))
         )
-        mild = int(np.floor(units * r_min))
+        mild = int(np.floor(units * ratios.min()))
         share = config.costs.order / config.max_order if orders else 0.0
-        return cls(config, units, mild, prob, wear, slack, per_unit if credit else 0.0, share)
+        return cls(config, units, mild, prob, wear, slack, per_unit if credit else 0.0, share,
+                   use, k_cut, boost)  # fmt: skip
+
+    @classmethod
+    def relaxed(
+        cls, config: FleetConfig, atlas: Atlas, units: int = 40, coverage: float = 0.99,
+        credit: bool = False, orders: bool = False, pads: int = 256, seed: int = 0,
+    ) -> BoundModel:  # fmt: skip
+        """The bound's model (module docstring's claim): mild wear by layer, and the slack
+        of :func:`~.lagrangian_wear.realised_slack` at ``coverage`` (``pads`` simulated
+        from ``seed``)."""
+        slack = realised_slack(atlas, config, coverage, pads, seed)
+        return cls.build(config, atlas, units, max(slack, 0.0), credit, orders, layers=True)
 
     @property
     def H(self) -> int:
@@ -159,12 +187,21 @@ class BoundModel:
         c = self.config
         return max(c.failure_repair_shifts, c.breakdown_repair_shifts) + 1
 
+    @property
+    def mild_step(self) -> I64:
+        """Units a mild shift uses from each state 0..H."""
+        if self.mild_use is not None:
+            return self.mild_use
+        return np.full(self.H + 1, self.mild_units, dtype=np.int64)
+
     def state(self, volume_frac: F64, k: F64) -> I64:
-        """Each pad's state: its expected hot RUL in units, rounded up, in [0, H]."""
+        """Each pad's state: its expected hot RUL in units (times ``boost`` below
+        ``k_cut``), rounded up, plus the slack, in [0, H]."""
         if self.wear is None:
             raise ValueError("BoundModel.state: a toy model has no wear clock")
         v = np.clip(volume_frac, self.wear.lower_edges[-1], 1.0)
         x = self.wear.rul(v, k) * self.units / self.config.events_per_shift
+        x = np.where(np.asarray(k) < self.k_cut, x * self.boost, x)
         return np.clip(np.ceil(x - 1e-9) + self.slack, 0, self.H).astype(np.int64)
 
     @property
@@ -258,11 +295,12 @@ def q_values(model: BoundModel, prices: Prices, t: int, v_next: F64) -> F64:
     shift ``t``, then optimally, given the values ``v_next`` of shift t + 1; +inf where
     not allowed (driving when down or at a window)."""
     c = model.config
-    H, D, m, cm = model.H, model.D, model.units, model.mild_units
+    H, D, m = model.H, model.D, model.units
     window = c.is_window(t)
     dec = np.maximum(np.arange(D) - 1, 0)
     new = model.new_prob @ v_next  # (D,): after a new pad, by shop state
-    q = np.full((4, H + 1, D), np.inf)
+    q = np.empty((4, H + 1, D))
+    q[[HOT, MILD]] = np.inf  # driving: only from d = 0 between windows (below)
     q[PARK] = v_next[:, dec]
     fit = np.full(D, model.fit_cost + model.order_share)
     if window:
@@ -276,11 +314,11 @@ def q_values(model: BoundModel, prices: Prices, t: int, v_next: F64) -> F64:
         p, R, F = c.breakdown_rate, c.breakdown_repair_shifts, c.failure_repair_shifts
         drive = (1 - p) * v_next[:, 0] + p * v_next[:, R] if p > 0 else v_next[:, 0]
         fail = model.fail_cost(t) + new[F]
-        for action, used, earn in ((HOT, m, prices.hot[t] + prices.work[t]),
-                                   (MILD, cm, prices.work[t])):  # fmt: skip
-            after = np.full(H + 1, fail)
-            after[used:] = drive[: H + 1 - used]
-            q[action, :, 0] = after - earn
+        hot = np.full(H + 1, fail)
+        hot[m:] = drive[: H + 1 - m]
+        q[HOT, :, 0] = hot - prices.hot[t] - prices.work[t]
+        left = np.arange(H + 1) - model.mild_step  # the state after a mild shift
+        q[MILD, :, 0] = np.where(left >= 0, drive[np.maximum(left, 0)], fail) - prices.work[t]
     return q
 
 
@@ -294,59 +332,13 @@ def solve(model: BoundModel, prices: Prices) -> Program:
     policy = np.zeros((T, model.H + 1, model.D), dtype=np.int8)
     for t in range(T - 1, -1, -1):
         q = q_values(model, prices, t, values[t + 1])
-        policy[t] = q.argmin(axis=0)
-        values[t] = np.take_along_axis(q, policy[t][None].astype(np.int64), axis=0)[0]
+        best, act = values[t], policy[t]
+        best[:] = q[0]
+        for a in range(1, len(ACTIONS)):  # argmin over actions (the first on ties), fast
+            better = q[a] < best
+            np.copyto(best, q[a], where=better)
+            act[better] = a
     return Program(values, policy)
-
-
-@dataclass(frozen=True)
-class Occupation:
-    """Expected numbers over the vehicles per shift under their optimal policies.
-
-    Attributes:
-        hot, mild, visits, down, window_fits: Vehicles on each route, on an unscheduled
-            visit, down in the shop (at the shift's start) and fitted at a window.
-    """
-
-    hot: F64
-    mild: F64
-    visits: F64
-    down: F64
-    window_fits: F64
-
-
-def occupation(model: BoundModel, program: Program, start: F64) -> Occupation:
-    """Propagate the vehicles' state counts forward under ``program``'s policy from
-    ``start`` (expected vehicles at each h, nobody down)."""
-    c = model.config
-    T, H, D = c.episode_shifts, model.H, model.D
-    p, R, F = c.breakdown_rate, c.breakdown_repair_shifts, c.failure_repair_shifts
-    dec = np.maximum(np.arange(D) - 1, 0)
-    x = np.zeros((H + 1, D))
-    x[:, 0] = start
-    out = {k: np.zeros(T) for k in ("hot", "mild", "visits", "down", "window_fits")}
-    for t in range(T):
-        a = program.policy[t]
-        nxt = np.zeros_like(x)
-        for d in range(D):
-            nxt[:, dec[d]] += np.where(a[:, d] == PARK, x[:, d], 0.0)
-        serviced = np.where(a == SERVICE, x, 0.0).sum(axis=0)  # (D,)
-        nxt += np.outer(model.new_prob, np.bincount(dec, weights=serviced, minlength=D))
-        failed = 0.0
-        for action, used in ((HOT, model.units), (MILD, model.mild_units)):
-            drv = np.where(a[:, 0] == action, x[:, 0], 0.0)
-            out["hot" if action == HOT else "mild"][t] = drv.sum()
-            failed += drv[:used].sum()
-            nxt[: H + 1 - used, 0] += (1 - p) * drv[used:]
-            nxt[: H + 1 - used, R] += p * drv[used:]
-        nxt[:, F] += failed * model.new_prob
-        if c.is_window(t):
-            out["window_fits"][t] = serviced.sum()
-        else:
-            out["visits"][t] = serviced[0]
-            out["down"][t] = x[:, 1:].sum()
-        x = nxt
-    return Occupation(**out)
 
 
 def bound(model: BoundModel, program: Program, prices: Prices, start: F64) -> float:
@@ -358,24 +350,6 @@ def bound(model: BoundModel, program: Program, prices: Prices, start: F64) -> fl
     bound_inputs("bound", model, prices, start)
     given_back = model.order_share * c.initial_stock
     return float(start @ program.values[0][:, 0] + prices.constant(c) - given_back)
-
-
-def supergradient(model: BoundModel, occ: Occupation) -> Prices:
-    """The slack of each relaxed constraint under the vehicles' optimal policies: a
-    supergradient of the bound in the prices."""
-    c = model.config
-    w = np.array([c.is_window(t) for t in range(c.episode_shifts)])
-    g = Prices(
-        c.hot_need - occ.hot,
-        c.hot_need + c.mild_need - occ.hot - occ.mild,
-        occ.visits + occ.down * c.bays / c.n_vehicles - c.bays,
-        occ.window_fits - c.window_slots,
-    )
-    zero = np.zeros(c.episode_shifts)
-    return replace(
-        g, hot=np.where(w, zero, g.hot), work=np.where(w, zero, g.work),
-        bay=np.where(w, zero, g.bay), crew=np.where(w, g.crew, zero),
-    )  # fmt: skip
 
 
 def start_counts(model: BoundModel, states: I64) -> F64:
@@ -394,6 +368,6 @@ def start_counts(model: BoundModel, states: I64) -> F64:
 
 
 __all__ = [
-    "ACTIONS", "BoundModel", "Occupation", "Prices", "Program", "bound", "occupation",
-    "project_needs", "q_values", "solve", "start_counts", "supergradient",
+    "ACTIONS", "BoundModel", "Prices", "Program", "bound", "project_needs", "q_values", "solve",
+    "start_counts",
 ]  # fmt: skip

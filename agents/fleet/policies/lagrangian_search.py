@@ -17,21 +17,14 @@ is never below their bound.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import NDArray
 
 from agents.fleet.policies.checks import bound_inputs, real, whole
-from agents.fleet.policies.lagrangian import (
-    BoundModel,
-    Prices,
-    Program,
-    bound,
-    occupation,
-    solve,
-    supergradient,
-)
+from agents.fleet.policies.lagrangian import BoundModel, Prices, Program, bound, solve
+from brake_env.env.fleet.shop import HOT, MILD, PARK, SERVICE
 
 F64 = NDArray[np.float64]
 GROW, SHRINK = 1.2, 0.5  # Rprop's factors (Riedmiller and Braun 1993)
@@ -44,6 +37,76 @@ def _flat(p: Prices) -> F64:
 def _prices(x: F64) -> Prices:
     hot, work, bay, crew = np.split(x, 4)
     return Prices(hot, work, bay, crew)
+
+
+@dataclass(frozen=True)
+class Occupation:
+    """Expected numbers over the vehicles per shift under their optimal policies.
+
+    Attributes:
+        hot, mild, visits, down, window_fits: Vehicles on each route, on an unscheduled
+            visit, down in the shop (at the shift's start) and fitted at a window.
+    """
+
+    hot: F64
+    mild: F64
+    visits: F64
+    down: F64
+    window_fits: F64
+
+
+def occupation(model: BoundModel, program: Program, start: F64) -> Occupation:
+    """Propagate the vehicles' state counts forward under ``program``'s policy from
+    ``start`` (expected vehicles at each h, nobody down)."""
+    c = model.config
+    T, H, D = c.episode_shifts, model.H, model.D
+    p, R, F = c.breakdown_rate, c.breakdown_repair_shifts, c.failure_repair_shifts
+    dec = np.maximum(np.arange(D) - 1, 0)
+    x = np.zeros((H + 1, D))
+    x[:, 0] = start
+    out = {k: np.zeros(T) for k in ("hot", "mild", "visits", "down", "window_fits")}
+    steps = [(HOT, np.arange(H + 1) - model.units), (MILD, np.arange(H + 1) - model.mild_step)]
+    for t in range(T):
+        a = program.policy[t]
+        nxt = np.zeros_like(x)
+        for d in range(D):
+            nxt[:, dec[d]] += np.where(a[:, d] == PARK, x[:, d], 0.0)
+        serviced = np.where(a == SERVICE, x, 0.0).sum(axis=0)  # (D,)
+        nxt += np.outer(model.new_prob, np.bincount(dec, weights=serviced, minlength=D))
+        failed = 0.0
+        for action, left in steps:
+            drv = np.where(a[:, 0] == action, x[:, 0], 0.0)
+            out["hot" if action == HOT else "mild"][t] = drv.sum()
+            failed += drv[left < 0].sum()
+            moved = np.bincount(left[left >= 0], weights=drv[left >= 0], minlength=H + 1)
+            nxt[:, 0] += (1 - p) * moved
+            nxt[:, R] += p * moved
+        nxt[:, F] += failed * model.new_prob
+        if c.is_window(t):
+            out["window_fits"][t] = serviced.sum()
+        else:
+            out["visits"][t] = serviced[0]
+            out["down"][t] = x[:, 1:].sum()
+        x = nxt
+    return Occupation(**out)
+
+
+def supergradient(model: BoundModel, occ: Occupation) -> Prices:
+    """The slack of each relaxed constraint under the vehicles' optimal policies: a
+    supergradient of the bound in the prices."""
+    c = model.config
+    w = np.array([c.is_window(t) for t in range(c.episode_shifts)])
+    g = Prices(
+        c.hot_need - occ.hot,
+        c.hot_need + c.mild_need - occ.hot - occ.mild,
+        occ.visits + occ.down * c.bays / c.n_vehicles - c.bays,
+        occ.window_fits - c.window_slots,
+    )
+    zero = np.zeros(c.episode_shifts)
+    return replace(
+        g, hot=np.where(w, zero, g.hot), work=np.where(w, zero, g.work),
+        bay=np.where(w, zero, g.bay), crew=np.where(w, g.crew, zero),
+    )  # fmt: skip
 
 
 @dataclass(frozen=True)
