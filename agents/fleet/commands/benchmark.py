@@ -26,11 +26,19 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
         " the bound (docs/benchmark.md)",
     )  # fmt: skip
     _suite_args(s, "out/fleet-score")
-    s.add_argument(
-        "--policy", required=True, metavar="MODULE:FACTORY|baseline:NAME",
+    who = s.add_mutually_exclusive_group(required=True)
+    who.add_argument(
+        "--policy", metavar="MODULE:FACTORY|baseline:NAME",
         help="FACTORY(env) returns an object with SB3's predict (masks given to a"
         " MaskablePPO) or a callable obs -> action; baseline:NAME re-scores a shipped rule",
     )  # fmt: skip
+    who.add_argument(
+        "--predictor", metavar="MODULE:FACTORY",
+        help="a new RUL predictor, FACTORY(atlas, seed) -> unfitted predictor: fitted on the"
+        " suite's pads, the shipped rules' family tuned on its RUL, scored on the test split",
+    )  # fmt: skip
+    s.add_argument("--trials", type=int_at_least(1), default=None,
+                   help="--predictor's Optuna trials (default: the shipped rules')")  # fmt: skip
     s.add_argument(
         "--episodes-from", type=int_range(0, 2**31), default=None, metavar="N",
         help="move the test split to seeds N.. (fresh episodes; the shipped baselines then"
@@ -93,16 +101,23 @@ def cmd_fleet_score(args: argparse.Namespace) -> dict[str, Any]:
     from tqdm import tqdm
 
     from agents.fleet.benchmark.baselines import read_baselines
+    from agents.fleet.benchmark.predictor import score_predictor
     from agents.fleet.benchmark.score import score
     from agents.fleet.benchmark.suite import read_suite
 
     suite = read_suite(args.suite)
     n = args.episodes or suite.test_episodes
-    with tqdm(total=n, desc=f"fleet-score {suite.name}", unit="episode",
-              disable=args.quiet) as bar:  # fmt: skip
-        result = score(suite, args.policy, suite_atlas(suite, args), progress=bar,
-                       episodes_from=args.episodes_from, episodes=args.episodes,
-                       baselines=read_baselines(suite, args.baselines))  # fmt: skip
+    shipped = read_baselines(suite, args.baselines)
+    if args.predictor is not None:
+        result = score_predictor(suite, args.predictor, suite_atlas(suite, args),
+                                 shipped=shipped, episodes_from=args.episodes_from,
+                                 episodes=args.episodes, trials=args.trials)  # fmt: skip
+    else:
+        with tqdm(total=n, desc=f"fleet-score {suite.name}", unit="episode",
+                  disable=args.quiet) as bar:  # fmt: skip
+            result = score(suite, args.policy, suite_atlas(suite, args), progress=bar,
+                           episodes_from=args.episodes_from, episodes=args.episodes,
+                           baselines=shipped)  # fmt: skip
     result["command"] = "brakewear " + shlex.join(sys.argv[1:])
     out = Path(args.out)
     write_json(result, out / "score.json")
