@@ -50,21 +50,21 @@ def add_planner_args(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--events-per-shift",
         type=POSITIVE,
-        default=None,
+        default=argparse.SUPPRESS,  # its default told in the help, not as None
         help="braking events of a vehicle per shift, for every pad (default: each pad's own"
         " from the log's time_s: its median events per day braked, times shift hours / 24)",
     )
     p.add_argument(
         "--shift-hours",
         type=POSITIVE,
-        default=None,
+        default=argparse.SUPPRESS,  # its default told in the help, not as None
         help=f"a shift's hours, shifts back to back (default {SHIFT_HOURS:g}: a 2 x 12 h"
         " roster); sets events per shift from time stamps and the calendar time to failure",
     )
     p.add_argument(
         "--horizons",
         type=horizon_list,
-        default=None,
+        default=argparse.SUPPRESS,  # its default told in the help, not as None
         help="shifts ahead for the probabilities of failure p_fail_<route>_<h>_shifts"
         f" (default {','.join(f'{h:g}' for h in HORIZONS)})",
     )
@@ -136,17 +136,18 @@ def planner_settings(log: pd.DataFrame, args: argparse.Namespace) -> PlannerSett
     without time stamps and no ``--events-per-shift`` is refused if ``--shift-hours`` or
     ``--horizons`` asked for shifts (else its columns in shifts are left empty, with a
     warning)."""
-    hours = SHIFT_HOURS if args.shift_hours is None else float(args.shift_hours)
-    horizons = HORIZONS if args.horizons is None else tuple(args.horizons)
+    given = {k: getattr(args, k, None) for k in ("events_per_shift", "shift_hours", "horizons")}
+    hours = SHIFT_HOURS if given["shift_hours"] is None else float(given["shift_hours"])
+    horizons = HORIZONS if given["horizons"] is None else tuple(given["horizons"])
     stamps = last_times(log)
     per: pd.Series | float | None
-    if args.events_per_shift is not None:
-        per, source = float(args.events_per_shift), "--events-per-shift"
+    if given["events_per_shift"] is not None:
+        per, source = float(given["events_per_shift"]), "--events-per-shift"
     elif stamps.notna().any():
         per = events_per_shift_from_times(log, hours)
         source = f"the log's time_s: median events per day braked x {hours:g} h / 24 h"
-    elif args.shift_hours is not None or args.horizons is not None:
-        flags = "--horizons" if args.shift_hours is None else "--shift-hours"
+    elif given["shift_hours"] is not None or given["horizons"] is not None:
+        flags = "--horizons" if given["shift_hours"] is None else "--shift-hours"
         raise ValueError(
             f"{flags} asks for shifts, but the log has no time stamps (time_s) to count"
             " events per shift from: give --events-per-shift N"
