@@ -297,7 +297,8 @@ def advice(sep: dict[str, Any]) -> list[str]:
         opts.append(
             (
                 r["more_runs"] * sep["events_per_run"],
-                f"log {r['more_runs']:.0f} more runs like these ({r['runs_needed']:.0f} in all"
+                f"log {r['more_runs']:.0f} more run{'' if r['more_runs'] == 1 else 's'} like"
+                f" these ({r['runs_needed']:.0f} in all"
                 f"{rng}): the paired z is {sep['paired_z']:.1f}, {sep['win_z']} is needed"
                 f" ({sep['power']:.0%} power)",
             )
@@ -323,7 +324,7 @@ def advice(sep: dict[str, Any]) -> list[str]:
 def _channel_advice(channels: list[dict[str, Any]], z_target: float) -> list[str]:
     """A channel that would separate them but is missing from the log or too noisy."""
     out = []
-    main = max(channels, key=lambda c: c["separation"])["channel"]
+    main = max(channels, key=lambda c: c["separation"])["channel"] if channels else None
     for c in channels:
         name = CHANNEL_NAMES[c["channel"]]
         if c["logged_share"] < 0.5 and c["z_if_all_logged"] >= z_target:

@@ -17,6 +17,7 @@ from sim2real.diagnosis.diagnose import diagnose
 from sim2real.diagnosis.logdata import prepare_log
 from sim2real.diagnosis.replay import Prediction
 from sim2real.diagnosis.separate import (
+    advice,
     channel_s2,
     events_to_add,
     runs_needed,
@@ -65,6 +66,30 @@ def test_channel_separation_in_predictive_spread_units() -> None:
     s2 = channel_s2(a, b)
     np.testing.assert_allclose(s2["temp"], [1.0, 0.0])
     np.testing.assert_allclose(s2["stop"], [0.0, 2.0])
+
+
+def test_advice_cheapest_first_and_a_channel_not_logged() -> None:
+    cell = {"range": "X", "events_logged": 0, "separation": 1.1, "events_to_log": 43.0}
+    cell["separation_by_channel"] = {"temp": 1.1, "stop": 0.03}
+    stop = {"channel": "stop", "logged_share": 0.0, "separation": 0.4, "z_if_all_logged": 5.0}
+    temp = {"channel": "temp", "logged_share": 1.0, "separation": 0.01, "z_if_all_logged": 0.1}
+    sep = {
+        "runs": {"runs_needed": 8.0, "more_runs": 4.0, "runs_needed_interval": [6.0, 11.0]},
+        "events_per_run": 800.0,  # 4 runs: 3200 events, more than the cell's 43
+        "paired_z": 2.9,
+        "win_z": 3.0,
+        "power": 0.8,
+        "target_z": 3.84,
+        "ranges": [cell],
+        "channels": [{**stop, "noise_factor": 1.0}, {**temp, "noise_factor": 0.03}],
+    }
+    lines = advice(sep)
+    assert lines[0].startswith("log about 43 braking events at X (the log has 0)")
+    assert lines[1].startswith("log 4 more runs like these (8 in all, 6-11 from the runs'")
+    assert lines[2].startswith("stopping distance separates them") and "holds 0%" in lines[2]
+    assert len(lines) == 3  # temperature is not the channel that separates them
+    sep["runs"]["runs_needed"] = float("inf")
+    assert advice(sep)[1] == "more runs like these would not separate them (paired z <= 0)"
 
 
 def test_synthetic_events_follow_two_alike(s2r_atlas: Atlas) -> None:
