@@ -73,7 +73,7 @@ def test_advice_cheapest_first_and_a_channel_not_logged() -> None:
     cell["separation_by_channel"] = {"temp": 1.1, "stop": 0.03}
     stop = {"channel": "stop", "logged_share": 0.0, "separation": 0.4, "z_if_all_logged": 5.0}
     temp = {"channel": "temp", "logged_share": 1.0, "separation": 0.01, "z_if_all_logged": 0.1}
-    sep = {
+    sep: dict[str, Any] = {
         "runs": {"runs_needed": 8.0, "more_runs": 4.0, "runs_needed_interval": [6.0, 11.0]},
         "events_per_run": 800.0,  # 4 runs: 3200 events, more than the cell's 43
         "paired_z": 2.9,
