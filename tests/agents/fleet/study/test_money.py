@@ -56,24 +56,35 @@ def files(tmp_path_factory, atlas, small_atlas) -> dict[str, Path]:
             "other": d / "other"}  # fmt: skip
 
 
-def test_the_fixed_interval_s_rul_is_a_nominal_pad_s_life_less_the_pad_s_age(atlas):
-    """Age alone: each route's nominal life (the fleet's mean K) times the share of a
-    nominal base-mix life not yet braked, whatever the pad's own wear."""
+def test_the_fixed_interval_s_rul_counts_a_nominal_pad_s_use_by_route(atlas):
+    """Use alone: the first pads from their age on the base mix; a new pad at a nominal
+    pad's life on each route; a ramp shift uses a ramp shift of it (and the same share of
+    its drift life), whatever the pad's own wear."""
     config = FleetStudyConfig(size="small", shifts=30, predictors=("fixed-interval",))
     env = rul_env(config, atlas, "fixed-interval", None)
     assert isinstance(env, AgeRULObservation)
-    obs, _ = env.reset(seed=3)
     c = config.fleet
     clocks = duty_clocks(atlas, ("hot", "mild"))
-    life = clocks.base.life(c.k_mean)
+    hot, mild = (r.life(c.k_mean) / c.events_per_shift for r in clocks.routes)
+    assert 150 < hot < 170 and 750 < mild < 900  # ~158 and ~820 shifts (FleetConfig's)
+
+    def rul(obs):
+        return obs[-2 * c.n_vehicles :].reshape(c.n_vehicles, 2).astype(float)
+
+    obs, _ = env.reset(seed=3)
+    age = obs[: c.n_vehicles * N_VF].reshape(c.n_vehicles, N_VF)[:, AGE].astype(float)
+    np.testing.assert_allclose(rul(obs)[:, 0], (1 - age / clocks.base.life(c.k_mean)) * hot,
+                               rtol=1e-5)  # fmt: skip
+    obs, *_, info = env.step(np.array([3, 1, 0]))  # vehicle 0 to the shop for new pads
+    assert info["vehicles"]["replaced"][0]
+    np.testing.assert_allclose(rul(obs)[0], [hot, mild], rtol=1e-5)
+    done = 0
     for _ in range(3):
-        age = obs[: c.n_vehicles * N_VF].reshape(c.n_vehicles, N_VF)[:, AGE].astype(float)
-        rul = obs[-2 * c.n_vehicles :].reshape(c.n_vehicles, 2)
-        for j, clock in enumerate(clocks.routes):
-            want = (1 - age / life) * clock.life(c.k_mean) / c.events_per_shift
-            np.testing.assert_allclose(rul[:, j], want, rtol=1e-5)
-        obs, *_ = env.step(np.array([0, 1, 0]))
-    assert 150 < clocks.routes[0].life(c.k_mean) / c.events_per_shift < 170  # ~158 hot shifts
+        obs, *_, info = env.step(np.array([0, 1, 0]))
+        done += info["vehicles"]["events"][0]
+    assert done > 0
+    used = done / c.events_per_shift / hot
+    np.testing.assert_allclose(rul(obs)[0], [hot * (1 - used), mild * (1 - used)], rtol=1e-5)
 
 
 def test_a_model_is_refused_by_name_clash_directory_and_name(files):
