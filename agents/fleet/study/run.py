@@ -103,7 +103,7 @@ def _figures(
 def report(summary: dict[str, Any], markdown: bool = False) -> str:
     """The study's tables as text: policies, the predictors' ranking, the agents."""
     c = summary["config"]
-    cur = summary["money"]["currency"] if "money" in summary else "currency units"
+    cur = _currency(summary)
     lines = [
         f"Fleet study: {c['size']} fleet ({c['fleet']['n_vehicles']} vehicles), {c['shifts']}"
         f" shifts an episode; {c['eval_episodes']} evaluation episodes (the same for every"
@@ -161,7 +161,8 @@ def _planner_lines(summary: dict[str, Any]) -> list[str]:
     if b:
         lines.append(
             f"\nLagrangian lower bound (any policy, any information) on the cost net of the pad"
-            f" life left at the end: {b['cost']:.3f} per vehicle-shift on these episodes"
+            f" life left at the end: {b['cost']:.3f} {_currency(summary)} per vehicle-shift on"
+            " these episodes"
             f" ({min(b['episodes']):.3f}-{max(b['episodes']):.3f};"
             f" {b['iterations']} price vectors, {b['seconds']['bound']:.0f} s; at zero prices"
             f" {b['zero_prices']:.3f}). Gaps to it are paired over episodes."
@@ -192,6 +193,11 @@ def _effect_lines(summary: dict[str, Any], markdown: bool) -> list[str]:
         " oracle reads the truth. Paired over the evaluation episodes:",
         table(rows, markdown),
     ]
+
+
+def _currency(summary: dict[str, Any]) -> str:
+    """The fleet file's currency (a study written before the money: its unnamed units)."""
+    return str(summary["money"]["currency"]) if "money" in summary else "currency units"
 
 
 def _agreement(a: dict[str, Any]) -> str:
