@@ -46,6 +46,8 @@ DemoStage = Callable[[DemoContext], tuple[Any, str]]
 # without Ray).
 DEMO_PREDICTORS = ("none", "physics", "data", "twin", "oracle")
 DEMO_WORKERS = 2
+# The demo's run-to-failure datasets (brakewear simulate's defaults: 10, 10, 5, 5).
+DEMO_RUNS = {"n_train": 4, "n_id": 5, "n_ood_slow": 3, "n_ood_fast": 3}
 
 
 def cmd_demo(args: argparse.Namespace) -> dict[str, Any]:
@@ -148,4 +150,7 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
     add_common_args(d, "out/demo")
     d.add_argument("--rebuild", action="store_true", help="ignore the atlas cache")
     add_simulation_args(d, "parquet")
+    # Smaller datasets than `simulate`'s: every later stage fits its predictors on
+    # max(3, --n-train) pads, and the evaluation's time is mostly the twin over the test runs.
+    d.set_defaults(**DEMO_RUNS)
     d.set_defaults(func=cmd_demo)

@@ -13,6 +13,7 @@ from brake_env.model.atlas import Atlas
 from brake_env.model.regime import WearRegime
 from sim2real.diagnosis.diagnose import diagnose
 from sim2real.diagnosis.rul import rul_scorer
+from sim2real.effects.interface import Effect
 from sim2real.effects.library import parse_effect, registry
 from sim2real.effects.truth import TruthSpec, simulate_truth
 from sim2real.validation.report import write_outputs
@@ -42,8 +43,33 @@ def demo_stage(ctx: DemoContext) -> tuple[dict[str, Any], str]:
     md = (
         f"## Sim-to-real gap diagnosis (withheld effect: `{effect.key}`)\n\n"
         f"{DEMO_RUNS} short truth runs ({len(logs['train'])} events), {seconds:.0f} s."
-        f" Verdict: **{res.verdict}**.\n\n```\n{text}\n```\n\n"
+        f" Verdict: **{res.verdict}**.{_against_truth(res.summary, effect)}\n\n```\n{text}\n```\n\n"
         "![residual maps](sim2real/figures/residual_maps.png)\n"
         "![before/after](sim2real/figures/before_after.png)\n"
     )
     return res.summary, md
+
+
+def _against_truth(summary: dict[str, Any], effect: Effect) -> str:
+    """The fitted parameter against the withheld truth, said plainly when its interval misses
+    it (few calibration runs: the interval is their disagreement, not the model's error)."""
+    fit = summary["attribution"]["parameter"]
+    if summary["attribution"]["winner"] is None or fit is None:
+        return ""
+    if not summary["attribution"]["winner"].startswith(effect.name + ":"):
+        return f" The withheld effect is `{effect.name}`; the winner is another."
+    truth = effect.values[fit["name"]]
+    lo, hi = fit["interval"]
+    said = (
+        f" Fitted {fit['name']} = {fit['value']:.4g}, {fit['level']:.0%} interval"
+        f" [{lo:.4g}, {hi:.4g}] (bootstrap over {fit['calibration_runs']} calibration runs);"
+        f" the truth is {truth:g}"
+    )
+    if lo <= truth <= hi:
+        return said + ", inside it."
+    return (
+        said + f": **the interval does not include the truth.** With"
+        f" {fit['calibration_runs']} calibration runs the interval says only how much those"
+        " runs disagree on the value, not how far the replay model's estimate may be from"
+        " the truth; it is too narrow at this budget."
+    )

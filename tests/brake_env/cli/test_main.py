@@ -77,6 +77,12 @@ def test_atlas_command_and_demo(tmp_path, monkeypatch) -> None:
     for section in ("## Prognostics", "## Maintenance cost by predictor", "## Sim-to-real gap"):
         assert section in report
     assert "Verdict: **speed_friction**" in report  # the withheld effect is named
+    assert "the truth is 0.2" in report  # its fitted parameter set against the truth
+    # Each stage's wall and CPU seconds, in run order, then the total.
+    times = report.split("## Stage times")[1].split("\n## ")[0]
+    stages = [r.split("|")[1].strip() for r in times.splitlines() if r.startswith("| ")][1:]
+    assert stages == ["atlas", "datasets", "evaluate", "compare", "fleet", "diagnose", "total"]
+    assert "## The fleet study (BrakeWearFleet-v1, `small` fleet)" in report
     demo = tmp_path / "demo"
     # The comparison: its table, and the agent it was given no budget to train named.
     assert "not trained" in report and "| policy |" in report
