@@ -6,7 +6,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from brake_env.cli.common import int_at_least, int_range, out_dir
+from brake_env.cli.common import SEED, int_range, out_dir
 
 SUITE_DEFAULT = "default"
 
@@ -51,7 +51,7 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
         default=200,
         help="simulated futures the plan is judged on",
     )
-    p.add_argument("--seed", type=int_at_least(0), default=0)
+    p.add_argument("--seed", type=SEED, default=0, help="the futures' seed (same seed, same plan)")
     p.add_argument("--atlas", default=None, help="the model's atlas .npz instead of the cache")
     p.add_argument("--cache-dir", type=out_dir, default=None, help="atlas cache")
     p.add_argument("--quiet", action="store_true", help="no table")
