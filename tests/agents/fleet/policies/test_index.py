@@ -118,7 +118,8 @@ def test_the_env_never_defers_nor_refuses_a_request(atlas, cover):
             assert c["deferred"] == 0 and c["refused"] == 0, (t, c)
             assert c["window_fits"] <= cfg.window_slots and c["visits"] <= cfg.bays, (t, c)
             fits += c["window_fits"] + c["shop_fits"] + c["visits"]
-    assert fits > 0  # the limits were exercised
+    if cover > 0:
+        assert fits > 0  # the limits were exercised
 
 
 def test_policy_is_deterministic_for_a_seed(atlas):
