@@ -101,38 +101,39 @@ def assign(
     v = np.where(allowed, v, 0.0)
     v -= v[:, PARK][:, None]  # a constant per vehicle: the same optimum, tamer numbers
     c = config.costs
-    nh, nw = (0, 0) if window else (config.hot_need, config.hot_need + config.mild_need)
     cost = np.concatenate([v.ravel(), [c.shortfall, c.mild_shortfall]])
-    rows, lo, hi = [], [], []
-
-    def row(coef: dict[int, F64 | float], low: float, high: float) -> None:
-        r = np.zeros(4 * n + 2)
-        for col, a in coef.items():
-            r[col] = a
-        rows.append(r)
-        lo.append(low)
-        hi.append(high)
-
-    per = np.arange(n) * 4
-    for i in range(n):  # one duty each
-        row({int(per[i]) + a: 1.0 for a in range(4)}, 1.0, 1.0)
-    hot, mild, fit = per + HOT, per + MILD, per + SERVICE
-    row({**dict.fromkeys(hot.tolist(), 1.0), 4 * n: 1.0}, nh, np.inf)
-    row({**dict.fromkeys([*hot.tolist(), *mild.tolist()], 1.0), 4 * n: 1.0, 4 * n + 1: 1.0},
-        nw, np.inf)  # fmt: skip
-    row(dict.fromkeys(fit.tolist(), 1.0), 0.0, float(stock))
-    if window:
-        row(dict.fromkeys(fit.tolist(), 1.0), 0.0, float(config.window_slots))
-    else:
-        row(dict.fromkeys(fit[~np.asarray(down, dtype=bool)].tolist(), 1.0), 0.0, float(free_bays))
+    A, lo, hi = _limits(config, np.asarray(down, dtype=bool), window, stock, free_bays)
     upper = np.concatenate([allowed.ravel().astype(float), [np.inf, np.inf]])
     res = milp(cost, integrality=np.ones(4 * n + 2), bounds=Bounds(np.zeros(4 * n + 2), upper),
-               constraints=LinearConstraint(np.array(rows), lo, hi),
+               constraints=LinearConstraint(A, lo, hi),
                options={"mip_rel_gap": 0.0})  # fmt: skip
     if res.x is None:  # parking everyone is always feasible: only a solver failure
         raise RuntimeError(f"assign: HiGHS found no assignment ({res.message})")
     x = np.round(res.x[: 4 * n]).reshape(n, 4)
     return x.argmax(axis=1).astype(np.int64)
+
+
+def _limits(
+    config: FleetConfig, down: B, window: bool, stock: int, free_bays: int
+) -> tuple[F64, F64, F64]:
+    """The assignment's constraints ``lo <= A x <= hi`` over x = (the n x 4 duty choices,
+    vehicle-major, then s_h, s_m): one duty each, the hot and the working need less the
+    shortfalls, the fits within the stock, then the crew (window) or the bays (visits)."""
+    n = len(down)
+    nh, nw = (0, 0) if window else (config.hot_need, config.hot_need + config.mild_need)
+    duty = np.zeros((n, 4 * n + 2))
+    duty[np.repeat(np.arange(n), 4), np.arange(4 * n)] = 1.0  # one duty each
+    hot, work, fits, room = (np.zeros(4 * n + 2) for _ in range(4))
+    per = np.arange(n) * 4
+    hot[per + HOT] = hot[4 * n] = 1.0
+    work[per + HOT] = work[per + MILD] = work[4 * n] = work[4 * n + 1] = 1.0
+    fits[per + SERVICE] = 1.0
+    room[(per + SERVICE) if window else (per + SERVICE)[~down]] = 1.0
+    cap = config.window_slots if window else free_bays
+    A = np.vstack([duty, hot, work, fits, room])
+    lo = np.concatenate([np.ones(n), [nh, nw, 0.0, 0.0]])
+    hi = np.concatenate([np.ones(n), [np.inf, np.inf, float(stock), float(cap)]])
+    return A, lo, hi
 
 
 class IndexPolicy:
