@@ -11,7 +11,7 @@ import json
 import pytest
 
 from agents.fleet.settings import FED_BACK, FleetStudyConfig, study_predictor_names
-from agents.fleet.study import units as study_units
+from agents.fleet.study import fits as study_fits
 from agents.fleet.study.build import rul_env, truth_atlas
 from agents.fleet.study.run import report, run_fleet_study
 from agents.fleet.study.summary import _config_dict
@@ -83,7 +83,7 @@ def test_the_nominal_twin_is_made_on_the_nominal_atlas_and_the_fed_back_on_the_t
 
         return make_dataset
 
-    monkeypatch.setattr(study_units, "make_dataset", recording(study_units.make_dataset))
+    monkeypatch.setattr(study_fits, "make_dataset", recording(study_fits.make_dataset))
     monkeypatch.setattr(registry, "make_dataset", recording(registry.make_dataset))
     nominal = study_fit(TINY, "twin", atlas, truth)
     fed = study_fit(TINY, "twin+effect", atlas, truth)
