@@ -11,7 +11,7 @@ events' worth), deepest for the least K. So a cut ``k_cut`` splits the pads: one
 layers down to the deepest a pad of K ``k_cut`` reaches in a mild shift from ``h - 1`` (a
 pad of more K is shallower: never more than its own use), kept so that ``h - use(h)`` never
 falls as ``h`` grows (a pad with more life is never left with less); a pad with
-``K < k_cut`` (``P(K < k_cut)``, 2.3% at the default cut of 2 sd) enters the model with its
+``K < k_cut`` (``P(K < k_cut)``, 0.13% at the default cut of 3 sd) enters the model with its
 life times ``boost = floor(units * r_max) / (units * r_min)`` (1.33), so that any sequence
 of shifts it survives (at least ``r_min`` a mild shift) the model's pad survives too. Both
 are relaxations for every ``k_cut``; the cut only moves how tight the bound is.

@@ -9,8 +9,11 @@ the policies' figure does): without the credit it would plan to run the pads dow
 episode that stops, which no policy of a mine that goes on does. The bound's prices are
 searched once for the mean of the evaluation episodes' starting
 states (a bound at any prices is valid), then each episode's bound is evaluated at its own
-start: a lower bound on the expected cost of every policy on that episode, whatever its
-information (the bound knows each pad's K). The price-directed policy reads the env's
+start: a lower bound on the expected cost on that episode of every non-anticipative policy
+(one that decides on what has happened so far, the pads' volumes and K included; not one
+that reads the breakdowns or conditions the env draws ahead), its model a relaxation
+(:meth:`BoundModel.relaxed`: mild wear by the pad's layer, a slack that 99% of pads'
+realised wear stays within). The price-directed policy reads the env's
 truth (a reference, not deployable) and acts on the uncredited program at the searched
 prices.
 """
@@ -48,7 +51,7 @@ def study_bound(
     service pays its least share of an order (:meth:`BoundModel.build`)."""
     cfg = config.fleet
     env = BrakeWearFleetEnv(cfg, atlas=atlas)
-    model = BoundModel.build(cfg, atlas, credit=True, orders=orders)
+    model = BoundModel.relaxed(cfg, atlas, credit=True, orders=orders)
     states = []
     for seed in config.eval_seeds():
         env.reset(seed=seed)

@@ -1,9 +1,9 @@
 """The Lagrangian bound against the env itself (issue 43, item 3): on tiny fleets whose pads
 last a dozen shifts, the best of a grid of simple rules (service thresholds at windows and
 between them x duty orders), each run ON THE ENV on the same episodes, costs no less than
-the bound of :meth:`BoundModel.relaxed` on those episodes' starts; and the mild wear by
-layer and the slack, the relaxation's parts, keep every pad's model life at or above the
-env's."""
+the bound of :meth:`BoundModel.relaxed` (mild wear by layer too) on those episodes' starts;
+and the mild wear by layer and the slack, the relaxation's parts, keep every pad's model
+life at or above the env's."""
 
 from __future__ import annotations
 
@@ -77,7 +77,7 @@ def best_rule(env: BrakeWearFleetEnv) -> tuple[float, tuple[Any, ...]]:
 def test_the_best_simple_rule_on_the_env_stays_above_the_bound(atlas, fleet):
     cfg = FLEETS[fleet]
     env = BrakeWearFleetEnv(cfg, atlas=atlas)
-    model = BoundModel.relaxed(cfg, atlas, units=10, credit=True, pads=64)
+    model = BoundModel.relaxed(cfg, atlas, units=10, credit=True, pads=64, layers=True)
     states = []
     for s in SEEDS:
         env.reset(seed=s)
@@ -124,3 +124,17 @@ def test_the_slack_covers_the_simulated_pads(atlas):
     assert (ahead <= m.slack / m.units).mean() >= 0.9
     again = pads_ahead(atlas, cfg, pads=32, seed=3)  # deterministic for a seed
     np.testing.assert_array_equal(ahead, again)
+
+
+def test_new_pads_states_follow_their_distribution(atlas):
+    """The model's new-pad distribution (boosted below the cut, shifted by the slack) is
+    that of the states :meth:`BoundModel.state` gives new pads of K drawn as the env draws
+    them."""
+    cfg = FleetConfig(episode_shifts=40)
+    m = BoundModel.build(cfg, atlas, units=5, credit=True, layers=True, slack_shifts=0.5)
+    assert m.k_cut == pytest.approx(cfg.k_mean - 3 * cfg.k_std) and m.boost > 1.0
+    k = cfg.wear.draw(np.random.default_rng(0), "id", 100_000)
+    states = m.state(np.ones(k.size), k)
+    seen = np.bincount(states, minlength=m.H + 1) / k.size
+    assert np.abs(np.cumsum(seen) - np.cumsum(m.new_prob)).max() < 0.01
+    assert m.new_prob[: m.slack].sum() == 0.0 and m.new_prob.sum() == pytest.approx(1.0)
