@@ -42,7 +42,7 @@ def fit_new(spec: str, atlas: Atlas, n_train_runs: int, seed: int) -> Any:
         ValueError: The factory cannot be loaded, or does not give a predictor (named).
     """
     try:
-        factory = load_factory(spec)
+        factory: Any = load_factory(spec)  # FACTORY(atlas, seed), not a policy's FACTORY(env)
     except ValueError as e:  # its message names --policy, the option it usually reads
         raise ValueError(str(e).replace("--policy", "--predictor", 1)) from None
     pred = factory(atlas, seed)
