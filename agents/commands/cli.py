@@ -28,11 +28,11 @@ from brake_env.cli.common import (
     predictor_list,
     wear_regime,
 )
-from brake_env.cli.demo import DEMO_PREDICTORS, DEMO_WORKERS
+from brake_env.cli.demo import DEMO_PREDICTORS, demo_runner
 from brake_env.env.config import REGIMES, EnvConfig
 from brake_env.output import table, write_json
 from brake_env.prognostics.registry import predictor_names
-from brake_env.runner import Runner, ray_available
+from brake_env.runner import Runner
 
 if TYPE_CHECKING:
     from brake_env.cli.demo import DemoContext
@@ -163,7 +163,7 @@ def demo_compare(ctx: DemoContext) -> tuple[dict[str, Any], str]:
     out = ctx.out / "compare"
     atlas = load_atlas(args)
     # Not resumed: a demo run with other settings rewrites its stages' outputs.
-    with Runner(DEMO_WORKERS) if ray_available() else Runner(0) as runner:
+    with demo_runner(args) as runner:
         summary = compare_and_report(
             config, atlas, out, args.seed, runner, quiet=args.quiet, resume=False
         )

@@ -9,7 +9,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from brake_env.cli.common import add_common_args, load_atlas, plugins
+from brake_env.cli.common import add_common_args, int_at_least, load_atlas, plugins
 from brake_env.cli.simulate import (
     SimulateJob,
     add_simulation_args,
@@ -19,6 +19,7 @@ from brake_env.cli.simulate import (
 )
 from brake_env.cli.stage_clock import StageClock
 from brake_env.output import write_text
+from brake_env.runner import Runner, ray_available
 
 
 @dataclass
@@ -42,8 +43,8 @@ class DemoContext:
 
 DemoStage = Callable[[DemoContext], tuple[Any, str]]
 # What the stages that compare policies share: the paper's three predictors between no
-# prognostics and the oracle, and a local Ray's CPUs for their units (in this process
-# without Ray).
+# prognostics and the oracle, and the default of --workers (a local Ray's CPUs for their
+# units; 0 or without Ray: in this process).
 DEMO_PREDICTORS = ("none", "physics", "data", "twin", "oracle")
 DEMO_WORKERS = 2
 # The demo's run-to-failure datasets (brakewear simulate's defaults: 10, 10, 5, 5).
@@ -141,6 +142,12 @@ Atlas `{atlas["hash"][:16]}`.
 """
 
 
+def demo_runner(args: argparse.Namespace) -> Runner:
+    """Where a stage's units run: a local Ray of ``--workers`` CPUs, else this process."""
+    workers = getattr(args, "workers", DEMO_WORKERS)
+    return Runner(workers) if workers and ray_available() else Runner(0)
+
+
 def register(sub: argparse._SubParsersAction[Any]) -> None:
     """Add ``demo`` to the ``brakewear`` parser."""
     fmt = argparse.ArgumentDefaultsHelpFormatter
@@ -149,6 +156,13 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
     )
     add_common_args(d, "out/demo")
     d.add_argument("--rebuild", action="store_true", help="ignore the atlas cache")
+    d.add_argument(
+        "--workers",
+        type=int_at_least(0),
+        default=DEMO_WORKERS,
+        help="CPUs of a local Ray for the comparison's and the fleet's units (0: all in this"
+        " process, no Ray)",
+    )
     add_simulation_args(d, "parquet")
     # Smaller datasets than `simulate`'s: every later stage fits its predictors on
     # max(3, --n-train) pads, and the evaluation's time is mostly the twin over the test runs.

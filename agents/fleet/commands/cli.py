@@ -15,11 +15,11 @@ from agents.fleet.study.build import truth_atlas
 from agents.fleet.study.fits import check_models
 from agents.fleet.study.run import report, run_fleet_study
 from brake_env.cli.common import load_atlas, make_runner
-from brake_env.cli.demo import DEMO_PREDICTORS, DEMO_WORKERS, DemoContext
+from brake_env.cli.demo import DemoContext, demo_runner
 from brake_env.model.atlas import Atlas
 from brake_env.model.effects import canonical_effects
 from brake_env.model.params import BrakeModel
-from brake_env.runner import Runner, ray_available
+from brake_env.runner import Runner
 
 
 def cmd_fleet_study(args: argparse.Namespace) -> dict[str, Any]:
@@ -35,28 +35,30 @@ def cmd_fleet_study(args: argparse.Namespace) -> dict[str, Any]:
 
 
 def demo_stage(ctx: DemoContext) -> tuple[dict[str, Any], str]:
-    """The fleet study on the small fleet at a budget the demo can afford: the demo's
-    predictors, two heuristics tuned on few trials, the reference, 120-shift episodes; no
-    agent (a MaskablePPO seed trains in 400-450 s on a quiet 2-core machine; the report
-    says so)."""
+    """The fleet study on the small fleet at a budget the demo can afford: no prognostics,
+    the twin and the oracle, two heuristics tuned on few trials, the reference, 120-shift
+    episodes; no agent (a MaskablePPO seed trains in 400-450 s on a quiet 2-core machine;
+    the report says so)."""
     args, d = ctx.args, DEMO_FLEET
     config = FleetStudyConfig(
-        predictors=DEMO_PREDICTORS, heuristics=d["heuristics"], shifts=d["shifts"],
+        predictors=DEMO_FLEET_PREDICTORS, heuristics=d["heuristics"], shifts=d["shifts"],
         trials=d["trials"], trials_best=d["trials"], tune_episodes=2,
         eval_episodes=d["episodes"], n_train_runs=max(3, args.n_train), seed=args.seed,
     )  # fmt: skip
     out = ctx.out / "fleet"
-    with Runner(DEMO_WORKERS) if ray_available() else Runner(0) as runner:
+    with demo_runner(args) as runner:
         summary = study_and_report(config, load_atlas(args), out, runner, quiet=args.quiet,
                                    resume=False)  # fmt: skip
     figs = "\n".join(f"![{Path(f).stem}](fleet/{f})" for f in summary["figures"])
     section = f"""## The fleet study (BrakeWearFleet-v1, `small` fleet)
 
 The benchmark's env (`BrakeWearFleet-v1`) on its shipped `small` fleet (2 vehicles), at a
-small budget: episodes cut to {d["shifts"]} shifts (the benchmark's: 365),
-{", ".join(d["heuristics"])} tuned with {d["trials"]} Optuna trials on 2 tuning episodes,
-{d["episodes"]} evaluation episodes, no best combination and no agent (a MaskablePPO
-training seed takes 400-450 s on a quiet 2-core machine, the study trains 10). At this
+small budget: the predictors {", ".join(DEMO_FLEET_PREDICTORS)} only (the comparison
+above has every one; `brakewear fleet-study` runs them all), episodes cut to {d["shifts"]}
+shifts (the benchmark's: 365), {", ".join(d["heuristics"])} tuned with {d["trials"]}
+Optuna trials on 2 tuning episodes, {d["episodes"]} evaluation episodes, no best
+combination and no agent (a MaskablePPO training seed takes 400-450 s on a quiet 2-core
+machine, the study trains 10). At this
 budget the heuristics are under-tuned and the intervals wide: the ranking below is what this
 budget shows, not the study's result (docs/results/fleet.md has the full run and its
 command). On episodes this short a tuned heuristic can come out below the reference (a
@@ -94,7 +96,10 @@ def _separated(rk: dict[str, Any]) -> str:
     return " ".join(said)
 
 
-# The demo's fleet study (docs/results/fleet.md has the full budget).
+# The demo's fleet study (docs/results/fleet.md has the full budget): no prognostics, the
+# twin and the oracle, the span the other predictors fall in (each one fitted and tuned
+# would cost the demo about as much as the rest of the stage).
+DEMO_FLEET_PREDICTORS = ("none", "twin", "oracle")
 DEMO_FLEET: dict[str, Any] = {
     "heuristics": ("threshold", "(n, N)"), "shifts": 120, "trials": 4, "episodes": 8,
 }  # fmt: skip

@@ -60,18 +60,17 @@ def test_atlas_command_and_demo(tmp_path, monkeypatch) -> None:
     # prognostics/commands/test_evaluate.py).
     tiny = {"heuristics": ("threshold",), "shifts": 20, "trials": 1, "episodes": 2}
     monkeypatch.setattr(agents.fleet.commands.cli, "DEMO_FLEET", tiny)
-    monkeypatch.setattr(agents.fleet.commands.cli, "DEMO_WORKERS", 0)
-    monkeypatch.setattr(agents.fleet.commands.cli, "DEMO_PREDICTORS", ("none", "oracle"))
+    monkeypatch.setattr(agents.fleet.commands.cli, "DEMO_FLEET_PREDICTORS", ("none", "oracle"))
     monkeypatch.setattr(sim2real.commands.demo, "DEMO_RUNS", 3)
     monkeypatch.setattr(sim2real.commands.demo, "DEMO_CANDIDATES", ("speed_friction", "tc_bias"))
-    for name, value in (("DEMO_TUNE_PADS", 2), ("DEMO_EVAL_PADS", 2), ("DEMO_WORKERS", 0)):
+    for name, value in (("DEMO_TUNE_PADS", 2), ("DEMO_EVAL_PADS", 2)):
         monkeypatch.setattr(agents.commands.cli, name, value)
     assert main(["atlas", "--out", str(tmp_path / "atlas"), "--quiet"]) == 0
     info = json.loads((tmp_path / "atlas" / "atlas.json").read_text())
     assert info["wear_per_event_ratio_end_fresh"] >= 1.2
     assert info["mean_temp_strictly_rising_everywhere"] is True
     assert (tmp_path / "atlas" / "calibration.png").stat().st_size > 0
-    assert main(["demo", "--out", str(tmp_path / "demo"), *SMALL]) == 0
+    assert main(["demo", "--out", str(tmp_path / "demo"), "--workers", "0", *SMALL]) == 0
     report = (tmp_path / "demo/report.md").read_text()
     assert "(cannot-stop: the" in report and "## The fleet study" in report
     for section in ("## Prognostics", "## Maintenance cost by predictor", "## Sim-to-real gap"):
