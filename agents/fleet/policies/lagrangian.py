@@ -129,7 +129,8 @@ class BoundModel:
     @classmethod
     def build(
         cls, config: FleetConfig, atlas: Atlas, units: int = 20, slack_shifts: float = 0.0,
-        credit: bool = False, orders: bool = False, layers: bool = False, k_cut_sd: float = 3.0,
+        credit: bool = False, orders: bool = False, *, layers: bool = False,
+        k_cut_sd: float = 3.0,
     ) -> BoundModel:  # fmt: skip
         """The model of an env's config and atlas (K of the ``id`` regime), every pad
         given ``slack_shifts`` hot shifts more than its expected life; with ``credit``
@@ -167,15 +168,16 @@ class BoundModel:
 
     @classmethod
     def relaxed(
-        cls, config: FleetConfig, atlas: Atlas, units: int = 20, coverage: float = 0.99,
+        cls, config: FleetConfig, atlas: Atlas, units: int = 20, coverage: float = 0.99, *,
         credit: bool = False, orders: bool = False, pads: int = 256, seed: int = 0,
         layers: bool = False,
     ) -> BoundModel:  # fmt: skip
         """The bound's model (module docstring's claim): the slack of
         :func:`~.lagrangian_wear.realised_slack` at ``coverage`` (``pads`` simulated from
         ``seed``); with ``layers`` mild wear by layer too. Off by default: at 20 units it
-        moves the default fleet's bound by nothing (the program puts worn pads, whose layers
-        wear at the least ratio, on mild duty) and its cut's boost costs 0.0007."""
+        left the default fleet's bound unchanged (1.5065 at 20 price steps, with or
+        without it; at 20 units a layer's use rounds to 3 or 4 twentieths, and the worn
+        pads' deep layers to 3) and its cut's boost (3 sd) cost 0.0007."""
         slack = realised_slack(atlas, config, coverage, pads, seed)
         return cls.build(config, atlas, units, max(slack, 0.0), credit, orders, layers=layers)
 
