@@ -9,7 +9,9 @@ against the truth:
 
 - **marked:** of the pads on hot or mild duty that will fail before the next window if they
   keep that duty (their true RUL on the route, simulated ahead on the episode's streams), the
-  share the plan services now or gives new pads by the window in most of its futures;
+  share the plan services now or gives new pads by the window in most of its futures; and of
+  the pads that would fail before the window on the ramp, those renewed by the window, and
+  those renewed or not sent up the ramp in the coming shift;
 - **interval:** the plan's cost over the horizon re-simulated from the true state (the
   episode's own streams, the same policy on the same belief) inside the plan's stated 90%
   interval of the futures' costs.
@@ -81,9 +83,13 @@ def one_case(case: int, ctx: dict, futures: int) -> dict:  # type: ignore[type-a
     summary = plan_summary(est, config, fut, {})
     duty = fut.first_action[: config.n_vehicles]
     drives = np.isin(duty, (0, 1))
+    left = to_window * config.events_per_shift
     true_rul = base.true_rul(np.where(duty == 1, 1, 0))
-    will_fail = drives & (true_rul < to_window * config.events_per_shift)
-    marked = (duty == 3) | (plan["p_new_pads_by_window"].to_numpy() >= 0.5)
+    will_fail = drives & (true_rul < left)
+    renewed = (duty == 3) | (plan["p_new_pads_by_window"].to_numpy() >= 0.5)
+    marked = renewed
+    hot_fail = base.true_rul("hot") < left  # would fail on the ramp before the window
+    hot_safe = renewed | (duty != 0)  # renewed, or not sent up the ramp now
     real = BeliefRULObservation(BrakeWearFleetEnv(config, atlas=atlas), est)
     obs, _ = real.reset(seed=0, options={"state": true})
     act2, cost = factory(real), 0.0
@@ -93,6 +99,8 @@ def one_case(case: int, ctx: dict, futures: int) -> dict:  # type: ignore[type-a
         cost -= float(r)
     lo, hi = summary["cost_interval"]
     return {"will_fail": int(will_fail.sum()), "marked": int((will_fail & marked).sum()),
+            "hot_fail": int(hot_fail.sum()), "hot_renewed": int((hot_fail & renewed).sum()),
+            "hot_safe": int((hot_fail & hot_safe).sum()),
             "inside": lo <= cost <= hi, "cost": cost, "lo": lo, "hi": hi,
             "cpu": cpu, "horizon": horizon}  # fmt: skip
 
@@ -114,11 +122,16 @@ def main() -> None:
         rows.append(one_case(case, ctx, args.futures))
         r = rows[-1]
         print(f"case {case:3d}: horizon {r['horizon']:2d}, will fail {r['will_fail']}, marked"
-              f" {r['marked']}, realised {r['cost']:9,.0f} in [{r['lo']:9,.0f}, {r['hi']:9,.0f}]"
+              f" {r['marked']} (on the ramp {r['hot_fail']}, renewed {r['hot_renewed']}),"
+              f" realised {r['cost']:9,.0f} in [{r['lo']:9,.0f}, {r['hi']:9,.0f}]"
               f" {'yes' if r['inside'] else 'NO'}  ({r['cpu']:.1f} s CPU)", flush=True)  # fmt: skip
     fail = sum(r["will_fail"] for r in rows)
     marked = sum(r["marked"] for r in rows)
     inside = sum(r["inside"] for r in rows)
+    hot = sum(r["hot_fail"] for r in rows)
+    print(f"pads that would fail before the window on the ramp: {hot}; the plan renews"
+          f" {sum(r['hot_renewed'] for r in rows)} of them by the window and keeps"
+          f" {sum(r['hot_safe'] for r in rows)} off the ramp or renewed")  # fmt: skip
     print(f"\npads that would fail before the window on their coming duty: {fail}, marked"
           f" {marked} ({marked / max(fail, 1):.0%}; target >= 95%)")  # fmt: skip
     print(f"realised cost inside the stated 90% interval: {inside} of {len(rows)}"
