@@ -15,7 +15,7 @@ failures (down ``failure_repair_shifts``, a spare fitted at once if there is one
 breakdowns, the order, the end of the shift, arrivals and the waiting vehicles' fits.
 
 **What it simplifies** (its error against the env is measured by
-``benchmarks/fleet_rollout.py``):
+``benchmarks/analysis/rollout_model_error.py``):
 
 - Wear per shift at its expectation (the law of large numbers over ~400 events): a hot
   shift uses 1 of ``h``; a mild shift ``r(h)``, the mild route's wear per event over the

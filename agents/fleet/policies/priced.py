@@ -32,7 +32,7 @@ remaining life highly, its "prefer a service" signal stops matching the real fle
 the policy cost 43.06 per vehicle-shift at the default fleet (2.14 on one episode at
 8-iteration prices, 6.87 at 30): too many unscheduled visits.
 
-**Measured** by ``benchmarks/fleet_bound.py --iterations 60 --only default`` (default
+**Measured** by ``benchmarks/analysis/fleet_bound.py --iterations 60 --only default`` (default
 fleet, 365 shifts, evaluation seeds 0..9; ``margin``, ``shop_limit`` and ``damping`` chosen
 on tuning seeds 10000..10019, never on the evaluation seeds; defaults ``margin = -2``,
 ``shop_limit = 20``, ``damping = 0.25``), 2026-11-27: **2.6773** per vehicle-shift against

@@ -49,7 +49,7 @@ def summarise(
 ) -> dict[str, Any]:
     """``costs.json``: the rows, the best heuristic per predictor, the predictors' ranking
     and the agents' aggregate (the targets are read from it by
-    ``benchmarks/fleet_targets.py``)."""
+    ``benchmarks/analysis/fleet_study_targets.py``)."""
     eps = {(p, h): episodes_of(units[config.heuristic_key(p, h)]["episodes"])
            for p in config.predictors for h in config.heuristics}  # fmt: skip
     ref_key = config.reference_key()
@@ -185,7 +185,7 @@ def _row(
     if params is not None:
         row["params"] = params
     # Per evaluation episode (the same seeds for every row): what a reader needs to pair
-    # any two policies (benchmarks/fleet_room.py).
+    # any two policies (benchmarks/analysis/fleet_room.py).
     row["episodes"] = {"seed": [e.seed for e in eps], "cost": x.tolist(), "net": net.tolist(),
                        "model_terms": [e.model_terms for e in eps]}  # fmt: skip
     return row
