@@ -12,7 +12,11 @@ policy: mean net cost per vehicle-shift, the index policy minus the rule and min
 price-directed policy (95% paired bootstrap), the ratio to the bound, and CPU seconds an
 episode.
 
-Run: ``.venv/bin/python benchmarks/analysis/index_policy.py --suite default --episodes 20``
+Run: ``.venv/bin/python benchmarks/analysis/index_policy.py --suite default --episodes 20``;
+on a busy machine one process per predictor and one for the price-directed policy, then
+their table: ``... --predictors oracle --no-priced --json o.json``, ``... --predictors twin
+--no-priced --json t.json``, ``... --predictors= --json p.json``, ``... --merge p.json o.json
+t.json``.
 """
 
 from __future__ import annotations
@@ -85,7 +89,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         priced = PricedPolicy(env, plain, found[1], solve(plain, found[1]))
         out["rows"][PRICED] = timed(env, priced, seeds)
     shipped = read_baselines(suite) or {"baselines": {}}
-    for p in args.predictors.split(","):
+    for p in filter(None, args.predictors.split(",")):
         entry = shipped["baselines"].get(f"{p}-rule")
         if entry is None:
             raise SystemExit(f"suite {suite.name!r} ships no tuned rule for {p!r}")
