@@ -33,10 +33,13 @@ the pad's is not). ``floor`` raises the needs' prices to a share of the shortfal
 (:func:`floored`, the program re-solved there), ``cover`` takes hot shifts off every RUL.
 
 **Measured** (``benchmarks/analysis/index_policy.py --episodes 10``: default suite, dev
-episodes 0-9, 365 shifts, net per vehicle-shift, 30-step prices; 2026-11-28): with the
-oracle's RUL 1.984 against the suite's tuned oracle rule's 2.159 (-0.175 [-0.313, -0.013])
-and the price-directed policy's 2.007 on the truth (-0.023 [-0.119, 0.118]); 1.273x the
-bound (1.559); 6.5 CPU s an episode (the MILP ~13 ms a shift).
+episodes 0-9, 365 shifts, net per vehicle-shift, 30-step prices; 2026-11-28), paired:
+
+- twin's RUL: 1.960 against the suite's tuned twin rule's 2.405 (-0.446 [-0.842, -0.256]);
+- oracle's RUL: 1.984 against the tuned oracle rule's 2.159 (-0.175 [-0.313, -0.013]);
+- both tie the price-directed policy on the truth, 2.007 (twin -0.048 [-0.135, 0.039],
+  oracle -0.023 [-0.119, 0.118]); 1.257x and 1.273x the bound (1.559);
+- 6.5 CPU s an episode with the oracle (the MILP ~13 ms a shift), 13.9 with the twin.
 
 The prices are searched once per fleet config and atlas (:func:`searched`, from the
 starting states of the tuning seeds, never the evaluation's); ``brakewear fleet-score
