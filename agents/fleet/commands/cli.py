@@ -28,7 +28,7 @@ def cmd_fleet_study(args: argparse.Namespace) -> dict[str, Any]:
     truth = truth_atlas(config, atlas, args.cache_dir)  # with --effect: built on a cache miss
     check_models(config, atlas, truth)  # --model fitted on other physics: refused here
     if config.bound_iterations:  # a bound too large for memory, refused before any unit runs
-        BoundModel.build(config.fleet, truth, credit=True)
+        BoundModel.build(config.fleet, truth, 20, 1.0, True)  # the relaxed slack is < 1 shift
     with make_runner(args) as runner:
         return study_and_report(config, atlas, Path(args.out), runner, quiet=args.quiet,
                                 truth=truth)  # fmt: skip

@@ -12,10 +12,10 @@ states (a bound at any prices is valid), then each episode's bound is evaluated 
 start: a lower bound on the expected cost on that episode of every non-anticipative policy
 (one that decides on what has happened so far, the pads' volumes and K included; not one
 that reads the breakdowns or conditions the env draws ahead), its model a relaxation
-(:meth:`BoundModel.relaxed`: mild wear by the pad's layer, a slack that 99% of pads'
-realised wear stays within). The price-directed policy reads the env's
-truth (a reference, not deployable) and acts on the uncredited program at the searched
-prices.
+(:meth:`BoundModel.relaxed`: a slack that 99% of pads' realised wear stays within; mild
+wear by the pad's layer is an option, off: it did not move the bound). The price-directed
+policy reads the env's truth (a reference, not deployable) and acts on the uncredited
+program at the searched prices.
 """
 
 from __future__ import annotations
