@@ -32,14 +32,15 @@ episode), or, with no ``cover``, 25.7 (10 failures: the program's wear is the ex
 the pad's is not). ``floor`` raises the needs' prices to a share of the shortfall costs
 (:func:`floored`, the program re-solved there), ``cover`` takes hot shifts off every RUL.
 
-**Measured** (``benchmarks/analysis/index_policy.py --episodes 10``: default suite, dev
-episodes 0-9, 365 shifts, net per vehicle-shift, 30-step prices; 2026-11-28), paired:
+**Measured** (``benchmarks/analysis/index_policy.py``, run on dev episodes 0-9 and 10-19:
+default suite, 365 shifts, net per vehicle-shift, 30-step prices; 2026-11-28), paired over
+the 20 dev episodes:
 
-- twin's RUL: 1.960 against the suite's tuned twin rule's 2.405 (-0.446 [-0.842, -0.256]);
-- oracle's RUL: 1.984 against the tuned oracle rule's 2.159 (-0.175 [-0.313, -0.013]);
-- both tie the price-directed policy on the truth, 2.007 (twin -0.048 [-0.135, 0.039],
-  oracle -0.023 [-0.119, 0.118]); 1.257x and 1.273x the bound (1.559);
-- 6.5 CPU s an episode with the oracle (the MILP ~13 ms a shift), 13.9 with the twin.
+- twin's RUL: 1.966 against the suite's tuned twin rule's 2.343 (-0.377 [-0.652, -0.231]);
+- oracle's RUL: 1.970 against the tuned oracle rule's 2.168 (-0.198 [-0.279, -0.094]);
+- both tie the price-directed policy on the truth, 1.978 (twin -0.011 [-0.068, 0.051],
+  oracle -0.008 [-0.065, 0.077]); 1.288x and 1.291x the bound (1.526);
+- 6.3 CPU s an episode with the oracle (the MILP ~13 ms a shift), 12.9 with the twin.
 
 The prices are searched once per fleet config and atlas (:func:`searched`, from the
 starting states of the tuning seeds, never the evaluation's); ``brakewear fleet-score
