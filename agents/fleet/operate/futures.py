@@ -27,6 +27,7 @@ from brake_env.model.atlas import Atlas
 
 F64 = NDArray[np.float64]
 B = NDArray[np.bool_]
+COMING = ("refused", "deferred", "shortfall", "mild_shortfall", "on_hot", "on_mild")
 
 
 @dataclass(frozen=True, eq=False)
@@ -42,6 +43,9 @@ class Futures:
         window_fit: (futures, vehicles) fitted at the window.
         failed: (futures, vehicles) its brakes failed within the horizon.
         ordered: Pads ordered over the horizon.
+        coming: The coming shift's counts in the first future (``refused``, ``deferred``,
+            ``shortfall``, ``mild_shortfall``, ``on_hot``, ``on_mild``): whether the decision
+            fits the fleet's needs, bays, crew and stock.
         seconds: Wall time of the simulation.
     """
 
@@ -52,6 +56,7 @@ class Futures:
     window_fit: B
     failed: B
     ordered: F64
+    coming: dict[str, int] = field(default_factory=dict)
     seconds: float = field(default=0.0)
 
 
@@ -70,7 +75,7 @@ def simulate(
     cost, ordered = np.zeros(futures), np.zeros(futures)
     terms = {t: np.zeros(futures) for t in COST_TERMS}
     fitted, window_fit, failed = (np.zeros((futures, n), dtype=bool) for _ in range(3))
-    first = np.zeros(n + 1, dtype=np.int64)
+    first, coming = np.zeros(n + 1, dtype=np.int64), {}
     for i in range(futures):
         truth = sampled_truth(state, est, base, rng)
         obs, _ = env.reset(seed=seed * 1_000_003 + i, options={"state": truth})
@@ -80,6 +85,8 @@ def simulate(
                 first = np.asarray(action, dtype=np.int64).copy()
             obs, _, _, trunc, info = env.step(action)
             v, c = info["vehicles"], info["counts"]
+            if t == 0 and i == 0:
+                coming = {k: int(c[k]) for k in COMING}
             fitted[i] |= v["replaced"]
             window_fit[i] |= v["replaced"] & bool(info["window"])
             failed[i] |= v["failed"]
@@ -89,5 +96,5 @@ def simulate(
             if trunc:
                 break
         cost[i] = sum(terms[k][i] for k in terms)
-    return Futures(cost, terms, first, fitted, window_fit, failed, ordered,
+    return Futures(cost, terms, first, fitted, window_fit, failed, ordered, coming,
                    time.perf_counter() - t0)  # fmt: skip

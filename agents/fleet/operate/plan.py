@@ -90,6 +90,7 @@ def plan_summary(
         "cost_interval_level": LEVEL,
         "cost_by_term": {k: float(v.mean()) for k, v in fut.terms.items()},
         "order_now": int(fut.first_action[-1]),
+        "coming_shift": fut.coming,
         "pads_ordered_over_horizon": float(fut.ordered.mean()),
         "replace_at_next_window": [est.vehicles[i] for i in np.flatnonzero(at_window)],
         "service_now": [est.vehicles[i] for i in np.flatnonzero(fut.first_action[:-1] == 3)],

@@ -150,10 +150,19 @@ def plan_text(plan: Any, s: dict[str, Any], est: VehicleEstimates) -> str:
         f" {s['policy']}; next window in {s['shifts_to_window']} shifts:",
         table(rows),
         f"order now: {s['order_now']} pads; service now: {', '.join(s['service_now']) or 'none'}",
+        coming_text(s["coming_shift"]),
         f"cost over the next {s['horizon_shifts']} shifts: {s['expected_cost']:,.0f} {cur}"
         f" expected, 90% of futures in [{lo_hi[0]:,.0f}, {lo_hi[1]:,.0f}] ({s['futures']}"
         f" futures, {s['seconds']:.1f} s)",
     ])  # fmt: skip
+
+
+def coming_text(c: dict[str, int]) -> str:
+    """The coming shift against the fleet's needs, as the env served it."""
+    short = c["shortfall"] + c["mild_shortfall"]
+    return (f"coming shift: {c['on_hot']} on the ramp, {c['on_mild']} in the drifts;"
+            f" {short} short of the needs, {c['refused']} duties refused,"
+            f" {c['deferred']} services deferred (bays, crew, stock)")  # fmt: skip
 
 
 def write_plan(out: Path, result: dict[str, Any]) -> None:

@@ -93,6 +93,11 @@ def test_plan_writes_one_row_per_vehicle_and_is_deterministic(inputs, tmp_path) 
     lo, hi = ja["cost_interval"]
     assert lo <= hi and ja["expected_cost"] >= 0
     assert (a / "plan.png").stat().st_size > 10_000
+    # the coming shift's decision fits the fleet: nothing refused or deferred, the needs met
+    coming = ja["coming_shift"]
+    assert coming["refused"] == 0 and coming["deferred"] == 0
+    assert coming["on_hot"] == (plan["duty"] == "hot").sum()
+    assert coming["shortfall"] == max(0, 2 - coming["on_hot"])
 
 
 def test_the_worn_pad_is_not_sent_to_brake_past_its_life(inputs, tmp_path) -> None:
