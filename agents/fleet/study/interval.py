@@ -19,13 +19,12 @@ from typing import Any
 
 import gymnasium as gym
 import numpy as np
-from gymnasium import spaces
 from numpy.typing import NDArray
 
 from brake_env.env.fleet.route_rul import ROUTE_NAMES, duty_clocks
 from brake_env.env.fleet.routes import ROUTE_INDEX, ROUTES
 from brake_env.env.fleet.spaces import N_VF, VEHICLE_FEATURES
-from brake_env.env.fleet.wrappers import ESTIMATE_FIELDS, RUL_HIGH_SHIFTS
+from brake_env.env.fleet.wrappers import _appended_space, _check_layout
 
 AGE = VEHICLE_FEATURES.index("pad_age")
 
@@ -50,11 +49,10 @@ class AgeRULObservation(
         routes: tuple[str, ...] = ROUTE_NAMES,
     ) -> None:
         super().__init__(env)
-        if not fields or any(f not in ESTIMATE_FIELDS for f in fields):
-            raise ValueError(f"AgeRULObservation: fields must be among {ESTIMATE_FIELDS}")
+        self.fields, self.routes = _check_layout("AgeRULObservation", fields, routes)
         base: Any = env.unwrapped
         c = base.config
-        self.fields, self.routes, self.n = tuple(fields), tuple(routes), int(c.n_vehicles)
+        self.n = int(c.n_vehicles)
         # A nominal pad's life in events on every route of the env (info's route indices)
         every = duty_clocks(base.atlas, tuple(r.name for r in ROUTES))
         self.life = np.array([float(r.life(c.k_mean)) for r in every.routes])
@@ -62,14 +60,8 @@ class AgeRULObservation(
         self.route_life = self.life[[ROUTE_INDEX[r] for r in self.routes]] / c.events_per_shift
         self.used = np.zeros(self.n)
         self.serial = np.zeros(self.n, dtype=np.int64)
-        k = len(self.fields) * len(self.routes) * self.n
-        box = env.observation_space
-        assert isinstance(box, spaces.Box)
-        self.observation_space = spaces.Box(
-            np.concatenate([box.low, np.zeros(k, dtype=np.float32)]),
-            np.concatenate([box.high, np.full(k, RUL_HIGH_SHIFTS, dtype=np.float32)]),
-            dtype=np.float32,
-        )
+        per = len(self.fields) * len(self.routes)
+        self.observation_space = _appended_space(env, per)  # type: ignore[assignment]
 
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
