@@ -56,6 +56,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from agents.fleet.policies.base import FleetPolicy
 from agents.fleet.policies.checks import real, same_config, whole
 from agents.fleet.policies.lagrangian import (
     BoundModel,
@@ -146,7 +147,7 @@ def _limits(
     return A, lo, hi
 
 
-class IndexPolicy:
+class IndexPolicy(FleetPolicy):
     """Program values per vehicle, one exact assignment a shift (module docstring).
 
     Args:
@@ -183,17 +184,8 @@ class IndexPolicy:
         self.layout, self.model, self.prices, self.program = layout, model, prices, program
         self.s, self.S, self.name = s, S, name
 
-    def predict(
-        self,
-        observation: NDArray[Any],
-        state: tuple[NDArray[Any], ...] | None = None,
-        episode_start: NDArray[np.bool_] | None = None,
-        deterministic: bool = True,
-    ) -> tuple[NDArray[Any], tuple[NDArray[Any], ...] | None]:
-        obs = np.asarray(observation)
-        if obs.ndim == 2:
-            return np.stack([self.act(o) for o in obs]), state
-        return self.act(obs), state
+    def action(self, observation: NDArray[Any]) -> I64:
+        return self.act(observation)
 
     def states(self, obs: NDArray[Any]) -> tuple[FleetView, I64, I64]:
         """The observation read, and each vehicle's ``(h, d)`` in the program's grid."""

@@ -53,6 +53,7 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import NDArray
 
+from agents.fleet.policies.base import FleetPolicy
 from agents.fleet.policies.checks import real, same_config, whole
 from agents.fleet.policies.lagrangian import BoundModel, Prices, Program, q_values, solve
 from agents.fleet.policies.rules import reorder
@@ -70,7 +71,7 @@ def damped(prices: Prices, factor: float) -> Prices:
                    bay=prices.bay * factor, crew=prices.crew * factor)  # fmt: skip
 
 
-class PricedPolicy:
+class PricedPolicy(FleetPolicy):
     """Price-free services, duties ranked by the program at damped prices (module
     docstring).
 
@@ -114,13 +115,8 @@ class PricedPolicy:
         needs_program = rank == "program" and damping != 1.0
         self.program = solve(model, self.prices) if needs_program else program
 
-    def predict(
-        self,
-        observation: NDArray[Any],
-        state: tuple[NDArray[Any], ...] | None = None,
-        episode_start: NDArray[np.bool_] | None = None,
-        deterministic: bool = False,
-    ) -> tuple[NDArray[Any], tuple[NDArray[Any], ...] | None]:
+    def action(self, observation: NDArray[Any]) -> NDArray[np.int64]:
+        """The decision on the env's truth (the observation is not read)."""
         base = self.env.unwrapped
         c, shop = base.config, base.shop
         truth = base.truth()
@@ -128,7 +124,7 @@ class PricedPolicy:
         duty = self.decide(base.shift, h, shop.down.copy(), shop.stock, shop.free_bays())
         fits = int((duty == SERVICE).sum())
         order = reorder(shop.stock, shop.in_transit, fits, self.s, self.S, c.max_order)
-        return np.append(duty, order).astype(np.int64), state
+        return np.append(duty, order).astype(np.int64)
 
     def costs(self, shift: int, h: I64, down: I64) -> F64:
         """The (damped) program's cost of each action (rows hot, mild, park, service) for

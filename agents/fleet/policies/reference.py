@@ -47,6 +47,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.stats import norm
 
+from agents.fleet.policies.base import FleetPolicy
 from agents.fleet.policies.rules import reorder
 from brake_env.env.fleet.config import FleetConfig
 from brake_env.env.fleet.routes import HOT as HOT_ROUTE
@@ -259,7 +260,7 @@ def solve(model: ReferenceModel, tail: int = 0) -> Solution:
     return Solution(values, plan)
 
 
-class ReferencePolicy:
+class ReferencePolicy(FleetPolicy):
     """Follows the program in the env: each shift, among the joint decisions the env allows
     (down vehicles only park or get pads; services within stock and free bays), the one of
     least shift cost plus expected value of the next shift's state (one-step look-ahead on
@@ -282,13 +283,8 @@ class ReferencePolicy:
         self.env, self.model, self.solution = env, model, solution
         self.s, self.S, self.safety = s, S, safety
 
-    def predict(
-        self,
-        observation: NDArray[Any],
-        state: tuple[NDArray[Any], ...] | None = None,
-        episode_start: NDArray[np.bool_] | None = None,
-        deterministic: bool = False,
-    ) -> tuple[NDArray[Any], tuple[NDArray[Any], ...] | None]:
+    def action(self, observation: NDArray[Any]) -> NDArray[np.int64]:
+        """The decision on the env's truth (the observation is not read)."""
         base = self.env.unwrapped
         c, shop = base.config, base.shop
         truth = base.truth()
@@ -296,7 +292,7 @@ class ReferencePolicy:
         joint = self.decide(base.shift, h, shop.down.copy(), shop.stock, shop.free_bays())
         fits = sum(j == SERVICE for j in joint)
         order = reorder(shop.stock, shop.in_transit, fits, self.s, self.S, c.max_order)
-        return np.array([*joint, order], dtype=np.int64), state
+        return np.array([*joint, order], dtype=np.int64)
 
     def decide(
         self, shift: int, h: NDArray[np.int64], down: NDArray[np.int64], stock: int, bays: int

@@ -41,6 +41,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agents.fleet.policies import batch_rule
+from agents.fleet.policies.base import FleetPolicy
 from agents.fleet.policies.checks import fits_memory, real, whole
 from agents.fleet.policies.planning import FleetState, Futures, PlanningModel, ProgramValue
 from agents.fleet.policies.rules import FleetRule, reorder
@@ -55,7 +56,7 @@ Z90 = 1.6448536269514722  # a 90% interval's half-width in standard deviations
 MAX_HORIZON, MAX_SAMPLES = 100_000, 1_000_000  # the env's longest episode; futures
 
 
-class RolloutPolicy:
+class RolloutPolicy(FleetPolicy):
     """Multiagent rollout on ``base`` (module docstring), with SB3's ``predict`` signature.
 
     Args:
@@ -99,17 +100,8 @@ class RolloutPolicy:
     def layout(self) -> FleetLayout:
         return self.base.layout
 
-    def predict(
-        self,
-        observation: NDArray[Any],
-        state: tuple[NDArray[Any], ...] | None = None,
-        episode_start: NDArray[np.bool_] | None = None,
-        deterministic: bool = False,
-    ) -> tuple[NDArray[Any], tuple[NDArray[Any], ...] | None]:
-        obs = np.asarray(observation)
-        if obs.ndim == 2:
-            return np.stack([self.act(o) for o in obs]), state
-        return self.act(obs), state
+    def action(self, observation: NDArray[Any]) -> I64:
+        return self.act(observation)
 
     def act(self, observation: NDArray[Any]) -> I64:
         """The action (duties, then the order) for one observation."""

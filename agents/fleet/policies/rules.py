@@ -40,6 +40,7 @@ from typing import Any, Literal, Protocol
 import numpy as np
 from numpy.typing import NDArray
 
+from agents.fleet.policies.base import FleetPolicy
 from agents.fleet.policies.view import FleetLayout, FleetView
 from brake_env.env.fleet.rules import fill_needs, room_for
 from brake_env.env.fleet.shop import HOT, MILD, PARK, SERVICE
@@ -111,7 +112,7 @@ class FleetRuleParams:
         return limit
 
 
-class FleetRule:
+class FleetRule(FleetPolicy):
     """A fleet rule (module docstring): one observation or a batch in, actions out.
 
     Args:
@@ -123,17 +124,8 @@ class FleetRule:
     def __init__(self, layout: FleetLayout, params: FleetRuleParams, name: str = "rule") -> None:
         self.layout, self.params, self.name = layout, params, name
 
-    def predict(
-        self,
-        observation: NDArray[Any],
-        state: tuple[NDArray[Any], ...] | None = None,
-        episode_start: NDArray[np.bool_] | None = None,
-        deterministic: bool = False,
-    ) -> tuple[NDArray[Any], tuple[NDArray[Any], ...] | None]:
-        obs = np.asarray(observation)
-        if obs.ndim == 2:
-            return np.stack([self.act(FleetView.read(o, self.layout)) for o in obs]), state
-        return self.act(FleetView.read(obs, self.layout)), state
+    def action(self, observation: NDArray[Any]) -> I64:
+        return self.act(FleetView.read(observation, self.layout))
 
     def act(self, view: FleetView) -> I64:
         """The action (duties, then the order) for one observation."""
