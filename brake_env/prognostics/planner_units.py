@@ -58,22 +58,29 @@ def p_fail_before(lower: F64, upper: F64, events: ArrayLike, level: float = LEVE
     """
     from scipy.stats import norm  # heavy: only where a probability is asked for
 
-    if not 0.0 < level < 1.0:
-        raise ValueError(f"p_fail_before: level must be in (0, 1), got {level}")
-    lo = np.maximum(np.asarray(lower, dtype=np.float64), MIN_EVENTS)
-    hi = np.maximum(np.asarray(upper, dtype=np.float64), lo)
     e = np.asarray(events, dtype=np.float64)
     if (e < 0).any():
         raise ValueError("p_fail_before: events must be >= 0")
+    mu, sigma = lognormal(lower, upper, level)
     if e.ndim == 2:
-        lo, hi = lo[:, None], hi[:, None]
-    mu = 0.5 * (np.log(lo) + np.log(hi))
-    sigma = (np.log(hi) - np.log(lo)) / (2.0 * float(norm.ppf(0.5 + level / 2.0)))
+        mu, sigma = mu[:, None], sigma[:, None]
     with np.errstate(divide="ignore", invalid="ignore"):
         z = (np.log(e) - mu) / np.where(sigma > 0, sigma, 1.0)
     step = (e >= np.exp(mu)).astype(np.float64)
     p = np.where(e > 0, np.where(sigma > 0, norm.cdf(z), step), 0.0)
     return np.where(np.isnan(e), np.nan, p)
+
+
+def lognormal(lower: ArrayLike, upper: ArrayLike, level: float = LEVEL) -> tuple[F64, F64]:
+    """(mu, sigma) of the log of each pad's RUL: the lognormal through its interval
+    ``[lower, upper]`` of level ``level`` (module doc; bounds under one event read as one)."""
+    from scipy.stats import norm  # heavy: only where a probability is asked for
+
+    if not 0.0 < level < 1.0:
+        raise ValueError(f"p_fail_before: level must be in (0, 1), got {level}")
+    lo = np.log(np.maximum(np.asarray(lower, dtype=np.float64), MIN_EVENTS))
+    hi = np.maximum(np.log(np.maximum(np.asarray(upper, dtype=np.float64), MIN_EVENTS)), lo)
+    return 0.5 * (lo + hi), (hi - lo) / (2.0 * float(norm.ppf(0.5 + level / 2.0)))
 
 
 def horizon_label(h: float) -> str:

@@ -33,11 +33,10 @@ from brake_env.prognostics.duty import volume_estimate
 from brake_env.prognostics.events import RULEstimate
 from brake_env.prognostics.fleet import predict_runs
 from brake_env.prognostics.persist import check_atlas, load_predictor, model_atlas, read_header
-from brake_env.prognostics.planner_units import LEVEL, last_times, p_fail_before
+from brake_env.prognostics.planner_units import LEVEL, last_times, lognormal, p_fail_before
 from brake_env.prognostics.protocol import iter_runs
 
 F64 = NDArray[np.float64]
-Z = float(norm.ppf(0.5 + LEVEL / 2))
 
 
 @dataclass(frozen=True, eq=False)
@@ -126,7 +125,7 @@ def from_log(
     age = np.array([float(ev.event[-1]) + 1.0 for _, ev in runs])
     stamps = _last_times(log)
     names = [str(r) for r, _ in runs]
-    base = _base_clock(atlas)
+    base = duty_clocks(atlas).base
     return of_estimate(last, age, base, names, as_of=[stamps.get(n) for n in names],
                        predictor=pred.name), atlas  # fmt: skip
 
@@ -136,14 +135,10 @@ def _last_times(log: pd.DataFrame) -> dict[str, float]:
     return {str(k): float(v) for k, v in t.items() if np.isfinite(v)}
 
 
-def _base_clock(atlas: Atlas) -> WearModel:
-    return duty_clocks(atlas).base
-
-
 def rul_quantiles(est: VehicleEstimates, u: F64) -> F64:
     """RUL at probability ``u`` (vehicles, ...) of each pad's lognormal through its interval
     (its median the interval's geometric centre)."""
-    mu, sigma = _lognormal(est)
+    mu, sigma = lognormal(est.lower, est.upper, LEVEL)
     return np.exp(mu[:, None] + sigma[:, None] * norm.ppf(np.asarray(u)))
 
 
@@ -151,11 +146,6 @@ def p_fail_within(est: VehicleEstimates, events: F64) -> F64:
     """Probability that each pad fails within ``events`` base-mix events (the lognormal
     :func:`~brake_env.prognostics.planner_units.p_fail_before` reads ``predict``'s with)."""
     return p_fail_before(est.lower, est.upper, events, LEVEL)
-
-
-def _lognormal(est: VehicleEstimates) -> tuple[F64, F64]:
-    lo, hi = np.log(est.lower), np.log(est.upper)
-    return (lo + hi) / 2, (hi - lo) / (2 * Z)
 
 
 def state_of(
