@@ -21,13 +21,13 @@ import numpy as np
 from agents.fleet.benchmark.baselines import read_baselines
 from agents.fleet.benchmark.score import Adapted, load_factory
 from agents.fleet.benchmark.suite import read_suite
-from agents.fleet.evaluation.tuning import SPACES
 from agents.fleet.operate.estimates import VehicleEstimates, from_log, state_of
 from agents.fleet.operate.futures import simulate
 from agents.fleet.operate.plan import as_of, plan_summary, plan_table, plot_plan
 from agents.fleet.policies.planning import PlanningModel
 from agents.fleet.policies.rollout import RolloutPolicy
 from agents.fleet.policies.view import FleetLayout
+from agents.fleet.study.build import rule_of
 from brake_env.csv_safe import write_csv
 from brake_env.env.fleet.config import FleetConfig
 from brake_env.env.fleet.fleet_file import read_fleet
@@ -63,8 +63,6 @@ def parse_down(items: list[str], vehicles: tuple[str, ...]) -> list[int]:
 
 def suite_rule(suite_name: str, predictor: str, config: FleetConfig) -> tuple[Any, str]:
     """(the suite's tuned rule for ``predictor``'s RUL on ``config``, its label)."""
-    import optuna  # the fleet extra, imported where used (as in tuning.tune)
-
     suite = read_suite(suite_name)
     shipped = (read_baselines(suite) or {}).get("baselines", {})
     name = f"{predictor}-rule"
@@ -74,8 +72,7 @@ def suite_rule(suite_name: str, predictor: str, config: FleetConfig) -> tuple[An
                          f" {predictor!r}'s RUL (it ships {', '.join(rules) or 'none'}); give"
                          " --suite or --policy MODULE:FACTORY")  # fmt: skip
     entry = shipped[name]
-    trial = optuna.trial.FixedTrial(entry["params"])
-    rule = SPACES[entry["policy"]](trial, FleetLayout.of(config), config.window_period)
+    rule = rule_of(config, entry["policy"], entry["params"], FleetLayout.of(config))
     return rule, f"baseline:{name} of suite {suite.name}"
 
 

@@ -21,6 +21,7 @@ from agents.fleet.evaluation.tuning import SPACES
 from agents.fleet.policies.view import FleetLayout
 from agents.fleet.settings import FIXED_INTERVAL, FleetStudyConfig
 from agents.fleet.study.interval import AgeRULObservation
+from brake_env.env.fleet.config import FleetConfig
 from brake_env.env.fleet.env import BrakeWearFleetEnv
 from brake_env.env.fleet.route_rul import ROUTE_NAMES
 from brake_env.env.fleet.wrappers import ExpectedRULObservation, FleetRULObservation
@@ -121,10 +122,15 @@ def rebuild_rule(
 ) -> Any:  # fmt: skip
     """A tuned heuristic from its parameters (as :func:`heuristic_unit` saved them), reading
     ``lay`` (default: the study's layout, the RUL mean alone)."""
+    return rule_of(config.fleet, heuristic, params, lay or layout(config))
+
+
+def rule_of(fleet: FleetConfig, heuristic: str, params: dict[str, Any], lay: FleetLayout) -> Any:
+    """The rule of family ``heuristic`` with tuned ``params`` on ``fleet``, reading ``lay``:
+    the one place a tuned rule is rebuilt (studies, shipped baselines, ``plan``)."""
     import optuna  # the fleet extra, imported where used (as in tuning.tune)
 
-    w = config.fleet.window_period
-    return SPACES[heuristic](optuna.trial.FixedTrial(params), lay or layout(config), w)
+    return SPACES[heuristic](optuna.trial.FixedTrial(params), lay, fleet.window_period)
 
 
 def single_thread(fn: Any, *args: Any) -> Any:
