@@ -70,6 +70,7 @@ from agents.fleet.policies.lagrangian_search import search
 from agents.fleet.policies.rules import reorder
 from agents.fleet.policies.view import FleetLayout, FleetView
 from agents.fleet.settings.training import TUNE_SEED0
+from brake_env.env.fleet import model as fleet
 from brake_env.env.fleet.config import FleetConfig
 from brake_env.env.fleet.env import BrakeWearFleetEnv
 from brake_env.env.fleet.shop import HOT, MILD, PARK, SERVICE
@@ -104,7 +105,7 @@ def assign(
         raise ValueError(f"assign: values must be (n, 4) and down (n,), got {v.shape} and"
                          f" {np.shape(down)}")  # fmt: skip
     allowed = np.isfinite(v)
-    allowed[:, [HOT, MILD]] &= ~(np.asarray(down, dtype=bool) | window)[:, None]
+    allowed[:, [HOT, MILD]] &= fleet.can_drive(down, window)[:, None]
     allowed[:, SERVICE] &= stock > 0
     allowed[:, PARK] = True  # parking is always allowed (the env's mask)
     if np.isinf(v[:, PARK]).any():
@@ -131,7 +132,7 @@ def _limits(
     vehicle-major, then s_h, s_m): one duty each, the hot and the working need less the
     shortfalls, the fits within the stock, then the crew (window) or the bays (visits)."""
     n = len(down)
-    nh, nw = (0, 0) if window else (config.hot_need, config.hot_need + config.mild_need)
+    nh, nw = fleet.needs(config, window)
     duty = np.zeros((n, 4 * n + 2))
     duty[np.repeat(np.arange(n), 4), np.arange(4 * n)] = 1.0  # one duty each
     hot, work, fits, room = (np.zeros(4 * n + 2) for _ in range(4))

@@ -9,7 +9,7 @@ paid) and ``waiting`` (failed, waiting for a spare); the ``stock``, the orders i
 given (``installs``, the index into its draws of new pads). The shift is common.
 
 **Transitions** are :meth:`BrakeWearFleetEnv.step`'s, in its order, with the env's own
-rules (:mod:`brake_env.env.fleet.rules`, the workshop's order of :mod:`.shop`): services
+rules (the functions of :mod:`brake_env.env.fleet.model` the env calls): services
 (window crew, stock, bays; deferred by pad age), refusals, new pads, a shift of wear,
 failures (down ``failure_repair_shifts``, a spare fitted at once if there is one),
 breakdowns, the order, the end of the shift, arrivals and the waiting vehicles' fits.
@@ -37,6 +37,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agents.fleet.policies.lagrangian import BoundModel, Program
+from brake_env.env.fleet import model as fleet
 from brake_env.env.fleet.config import FleetConfig
 from brake_env.env.fleet.routes import HOT as HOT_ROUTE
 from brake_env.env.fleet.routes import MILD as MILD_ROUTE
@@ -74,7 +75,7 @@ class FleetState:
 
     def free_bays(self, bays: int) -> I64:
         """Bays left for visits after the vehicles down, per future."""
-        return np.maximum(bays - (self.down > 0).sum(axis=1), 0)
+        return fleet.free_bays(bays, self.down)
 
 
 @dataclass(frozen=True)
@@ -185,28 +186,25 @@ class PlanningModel:
         window = c.is_window(s.shift)
         cost = w.downtime * ((s.down > 0) & s.failed).sum(axis=1).astype(np.float64)
         fit, visit = _serve(c, s, duty == SERVICE, window)
-        drives = ((duty == HOT) | (duty == MILD)) & (s.down == 0) & (not window)
+        drives = ((duty == HOT) | (duty == MILD)) & fleet.can_drive(s.down, window)
         self._install(s, fit, futures, rows)
         use = np.where(duty == HOT, 1.0, self.mild_use(s.h))
         failed = drives & (s.h < use)
         s.h = np.where(drives & ~failed, s.h - use, s.h)
         s.age = np.where(drives, s.age + c.events_per_shift, s.age)
         on_hot, on_mild = (drives & (duty == HOT)).sum(1), (drives & (duty == MILD)).sum(1)
-        cost += _shortfall(c, on_hot, on_mild, window)
-        s.down[failed], s.failed[failed] = c.failure_repair_shifts, True
-        s.waiting |= failed
+        cost += fleet.shortfall_cost(c, on_hot, on_mild, window)
+        fleet.fail(c, s.down, s.failed, s.waiting, failed)
         corrective = self._fit_waiting(s, futures, rows)
-        broke = drives & ~failed & (futures.breakdown[t, rows] < c.breakdown_rate)
-        s.down[broke], s.failed[broke] = c.breakdown_repair_shifts, False
-        s.transit[:, -1] += order
-        was = (s.down > 0) & ~(failed | broke)
-        s.down = np.where(was, s.down - 1, s.down)
-        s.down = np.where(was & s.waiting, np.maximum(s.down, 1), s.down)
+        broke = fleet.breaks(c, drives, failed, futures.breakdown[t, rows])
+        fleet.break_down(c, s.down, s.failed, broke)
+        fleet.place_order(s.transit, order)
+        s.down = fleet.end_shift(s.down, s.waiting, failed | broke)
         s.failed &= s.down > 0
         cost += w.holding * s.stock + w.order * (order > 0)
         s.shift += 1
-        s.stock += s.transit[:, 0]
-        s.transit = np.concatenate([s.transit[:, 1:], np.zeros_like(s.transit[:, :1])], axis=1)
+        arrived, s.transit = fleet.receive(s.transit)
+        s.stock += arrived
         corrective += self._fit_waiting(s, futures, rows)
         fits = fit.sum(1) + corrective
         return cost + self.fit_cost * fits + w.shop_visit * visit.sum(1) + w.damage * failed.sum(1)
@@ -224,7 +222,7 @@ class PlanningModel:
         """Failed vehicles waiting get a spare, in vehicle order; fits per future."""
         if not s.waiting.any():
             return np.zeros(s.size, dtype=np.int64)
-        fit = s.waiting & (np.cumsum(s.waiting, axis=1) <= s.stock[:, None])
+        fit = fleet.fit_waiting(s.waiting, s.stock)
         s.stock -= fit.sum(1)
         s.waiting &= ~fit
         self._install(s, fit, futures, rows)
@@ -259,39 +257,15 @@ class ProgramValue:
         return v[hu, np.clip(down, 0, v.shape[1] - 1)].sum(axis=1)
 
 
-def _shortfall(c: FleetConfig, on_hot: I64, on_mild: I64, window: bool) -> F64:
-    """:func:`brake_env.env.fleet.rules.shortfall_cost`, over the batch."""
-    if window:
-        return np.zeros(on_hot.shape)
-    extra = np.maximum(on_hot - c.hot_need, 0)
-    hot = np.maximum(c.hot_need - on_hot, 0)
-    mild = np.maximum(c.mild_need - on_mild - extra, 0)
-    return c.costs.shortfall * hot + c.costs.mild_shortfall * mild
-
-
 def _serve(c: FleetConfig, s: FleetState, asks: B, window: bool) -> tuple[B, B]:
     """The workshop's rule (:meth:`Workshop.plan`) over the batch: (fitted, visits). A
     request without a spare, slot or bay is deferred (the vehicle is parked)."""
-    fit, visit = np.zeros_like(asks), np.zeros_like(asks)
     if not asks.any():
-        return fit, visit
-    order = np.argsort(-s.age, axis=1, kind="stable")  # most events first, then index
-    rows = np.arange(s.size)
+        return np.zeros_like(asks), np.zeros_like(asks)
     down = s.down > 0
-    first = np.take_along_axis(asks & (down | window), order, axis=1)
-    later = np.take_along_axis(asks, order, axis=1) & ~first
-    slots = np.full(s.size, c.window_slots if window else c.n_vehicles, dtype=np.int64)
-    for k in np.flatnonzero(first.any(axis=0)):  # (positions where someone asks)
-        ok = first[:, k] & (s.stock > 0) & (slots > 0)
-        fit[rows, order[:, k]] |= ok
-        s.stock -= ok
-        slots -= ok
-    bays = s.free_bays(c.bays)
-    for k in np.flatnonzero(later.any(axis=0)):
-        ok = later[:, k] & (s.stock > 0) & (bays > 0)
-        fit[rows, order[:, k]] |= ok
-        visit[rows, order[:, k]] |= ok
-        s.stock -= ok
-        bays -= ok
+    order = fleet.workshop_order(s.age, down, window)
+    fit, _ = fleet.admit(c, asks, order, down=down, window=window, stock=s.stock,
+                         free=s.free_bays(c.bays))  # fmt: skip
+    s.stock -= fit.sum(axis=1)
     s.waiting &= ~fit
-    return fit, visit
+    return fit, fit & ~(down | window)

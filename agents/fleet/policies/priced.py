@@ -13,7 +13,7 @@ the pad's expected hot life in shifts. The repair step:
    down in the shop anyway below ``shop_limit``. Both limits are capped by the shifts
    left in the episode (a pad that outlasts the episode is not replaced). Requests are
    served least life first while a spare is in stock and there is room
-   (:func:`brake_env.env.fleet.rules.room_for`: a crew slot at a window, a free bay for a
+   (:func:`brake_env.env.fleet.model.admit`: a crew slot at a window, a free bay for a
    visit, none for a vehicle down in the shop); the others are not sent.
 2. **Duties** (between windows; vehicles not down and not serviced). The hot need is
    filled first (:func:`brake_env.env.fleet.rules.fill_needs`) by the vehicles of least
@@ -57,7 +57,8 @@ from agents.fleet.policies.base import FleetPolicy
 from agents.fleet.policies.checks import real, same_config, whole
 from agents.fleet.policies.lagrangian import BoundModel, Prices, Program, q_values, solve
 from agents.fleet.policies.rules import reorder
-from brake_env.env.fleet.rules import fill_needs, room_for
+from brake_env.env.fleet import model as fleet
+from brake_env.env.fleet.rules import fill_needs
 from brake_env.env.fleet.shop import HOT, MILD, PARK, SERVICE
 
 I64 = NDArray[np.int64]
@@ -144,17 +145,13 @@ class PricedPolicy(FleetPolicy):
         limit = np.where(down > 0, max(self.must, min(self.shop_limit, left)), self.must)
         if window:
             limit = np.maximum(limit, min(c.window_period - 1, left) + self.margin)
-        duty = np.full(len(h), PARK, dtype=np.int64)
-        slots = c.window_slots
-        for v in np.flatnonzero(life < limit)[np.argsort(life[life < limit], kind="stable")]:
-            if stock == 0:
-                break
-            if room_for(c, window, bool(down[v] > 0), slots, bays):
-                duty[v], stock = SERVICE, stock - 1
-                slots -= int(window)
-                bays -= int(not (window or down[v] > 0))
+        asks = life < limit
+        order = np.argsort(np.where(asks, life, np.inf), kind="stable")
+        send, _ = fleet.admit(c, asks[None], order[None], down=down > 0, window=window,
+                              stock=stock, free=bays)  # fmt: skip
+        duty = np.where(send[0], SERVICE, PARK).astype(np.int64)
         if not window:
-            self._duties(shift, h, life, (down == 0) & (duty != SERVICE), duty)
+            self._duties(shift, h, life, fleet.can_drive(down, window) & ~send[0], duty)
         return duty
 
     def _duties(self, shift: int, h: I64, life: F64, able: NDArray[np.bool_], duty: I64) -> None:

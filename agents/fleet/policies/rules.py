@@ -28,88 +28,28 @@ with every part free. All limits are RUL in shifts of hot duty (:mod:`.view`).
 - **Reorder** (s, S): when the inventory position (stock + in transit - fits sent now)
   is below ``s``, order up to ``S`` (at most ``max_order``).
 
-Every action respects the env's :meth:`action_masks` (rebuilt from the observation).
+Every action respects the env's :meth:`action_masks` (rebuilt from the observation). The
+decisions are written once, over a batch of states, in :mod:`.batch_rule`;
+:meth:`FleetRule.act` runs them on a batch of one.
 """
 
 from __future__ import annotations
 
 import dataclasses
-from dataclasses import dataclass
-from typing import Any, Literal, Protocol
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from agents.fleet.policies import batch_rule
 from agents.fleet.policies.base import FleetPolicy
+from agents.fleet.policies.batch_rule import DUTIES, SPARE_DUTIES, FleetRuleParams
 from agents.fleet.policies.view import FleetLayout, FleetView
-from brake_env.env.fleet.rules import fill_needs, room_for
-from brake_env.env.fleet.shop import HOT, MILD, PARK, SERVICE
 from brake_env.env.fleet.spares import reorder  # the rule's one home, re-exported here
 
+__all__ = ["DUTIES", "SPARE_DUTIES", "FleetRule", "FleetRuleParams", "opportunistic_rule",
+           "reorder", "threshold_rule", "window_rule", "with_parts"]  # fmt: skip
 I64 = NDArray[np.int64]
-DUTIES = ("roster", "rul", "due-first")
-SPARE_DUTIES = {"mild": MILD, "park": PARK}
-
-
-class ShopState(Protocol):
-    """What the replacement limits read: who is in the shop, and whether it is a window."""
-
-    @property
-    def down(self) -> NDArray[np.bool_]: ...
-
-    @property
-    def window(self) -> bool: ...
-
-
-@dataclass(frozen=True)
-class FleetRuleParams:
-    """The parts of :class:`FleetRule` (limits in shifts of hot duty).
-
-    Attributes:
-        must: Replace anywhere (an unscheduled visit between windows) below this RUL.
-        window_limit: Replace at a window below this RUL (None: ``must``).
-        shop_limit: Replace while in the shop below this RUL (None: ``must``).
-        greedy: Capacity-aware: serve lowest RUL first within stock and bays.
-        duty: ``roster`` (vehicle order), ``rul`` (healthiest on the hot route) or
-            ``due-first`` (pads due at the next window on the hot route first).
-        spare_duty: Duty of the able vehicles not needed on the hot route.
-        s: Reorder point: order when the inventory position is below it.
-        S: Order-up-to level (>= s).
-    """
-
-    must: float = 2.0
-    window_limit: float | None = None
-    shop_limit: float | None = None
-    greedy: bool = False
-    duty: Literal["roster", "rul"] = "roster"
-    spare_duty: Literal["mild", "park"] = "mild"
-    s: int = 2
-    S: int = 4
-
-    def __post_init__(self) -> None:
-        for name in ("must", "window_limit", "shop_limit"):
-            v = getattr(self, name)
-            if v is not None and not np.isfinite(v):
-                raise ValueError(f"FleetRuleParams: {name} must be finite, got {v}")
-        if self.duty not in DUTIES:
-            raise ValueError(f"FleetRuleParams: duty must be one of {DUTIES}, got {self.duty!r}")
-        if self.spare_duty not in SPARE_DUTIES:
-            raise ValueError(
-                f"FleetRuleParams: spare_duty must be one of {list(SPARE_DUTIES)},"
-                f" got {self.spare_duty!r}"
-            )
-        if not 0 <= self.s <= self.S:
-            raise ValueError(f"FleetRuleParams: need 0 <= s <= S, got s={self.s}, S={self.S}")
-
-    def limits(self, view: ShopState) -> NDArray[np.float64]:
-        """Each vehicle's replacement limit this shift (one state, or a batch of them:
-        ``view.down`` of any shape)."""
-        shop = self.must if self.shop_limit is None else max(self.must, self.shop_limit)
-        limit = np.where(view.down, shop, self.must)
-        if view.window:
-            win = self.must if self.window_limit is None else self.window_limit
-            limit = np.maximum(limit, win)
-        return limit
 
 
 class FleetRule(FleetPolicy):
@@ -128,60 +68,14 @@ class FleetRule(FleetPolicy):
         return self.act(FleetView.read(observation, self.layout))
 
     def act(self, view: FleetView) -> I64:
-        """The action (duties, then the order) for one observation."""
-        service, unserved = self._service(view)
-        duty = self._duties(view, service, unserved)
-        return np.append(duty, self._order(view, int(service.sum()))).astype(np.int64)
-
-    def _service(self, view: FleetView) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
-        """(vehicles sent to service, vehicles that wanted it but were not sent)."""
-        allowed = view.mask(self.layout.max_order)[: 4 * len(view.rul)].reshape(-1, 4)
-        want = (view.rul < self.params.limits(view)) & allowed[:, SERVICE]
-        if not self.params.greedy:
-            return want, np.zeros_like(want)
-        send = np.zeros_like(want)
-        config = self.layout.config
-        stock, bays, slots = view.stock, view.free_bays, config.window_slots
-        for v in np.flatnonzero(want)[np.argsort(view.rul[want], kind="stable")]:
-            if stock > 0 and room_for(config, view.window, bool(view.down[v]), slots, bays):
-                send[v], stock = True, stock - 1
-                slots -= int(view.window)
-                bays -= int(not (view.window or view.down[v]))
-        return send, want & ~send
-
-    def _duties(
-        self, view: FleetView, service: NDArray[np.bool_], unserved: NDArray[np.bool_]
-    ) -> I64:
-        n = len(view.rul)
-        duty = np.full(n, PARK, dtype=np.int64)
-        duty[service] = SERVICE
-        if view.window:
-            return duty
-        able = ~view.down & ~service
-        # Sort key: hot goes to the first of the able (vehicle order or most RUL); vehicles
-        # that wanted a service and were not sent go last.
-        key = -view.rul if self.params.duty != "roster" else np.arange(n, dtype=np.float64)
-        if self.params.duty == "due-first":
-            key = np.where(self._due(view), key - 1e9, key)
-        key = np.where(unserved, np.inf, key)
-        order = np.flatnonzero(able)[np.argsort(key[able], kind="stable")]
-        duty[order] = SPARE_DUTIES[self.params.spare_duty]
-        _, drift = fill_needs(self.layout.config, order, duty)
-        if self.params.duty == "due-first":  # a due pad covers a drift from the ramp
-            duty[drift[self._due(view)[drift]]] = HOT
-        return duty
-
-    def _due(self, view: FleetView) -> NDArray[np.bool_]:
-        """Pads that, driven on the ramp until the next window, are replaced there and
-        still above ``must`` when they get there."""
-        p = self.params
-        at_window = view.rul - view.to_window
-        win = p.must if p.window_limit is None else p.window_limit
-        return (at_window < win) & (at_window > p.must)
-
-    def _order(self, view: FleetView, fits: int) -> int:
-        p = self.params
-        return reorder(view.stock, view.transit, fits, p.s, p.S, self.layout.max_order)
+        """The action (duties, then the order) for one observation: the batched rule
+        (:func:`.batch_rule.act`) on a batch of one."""
+        one = batch_rule.BatchView(
+            view.rul[None], view.down[None], np.array([view.stock]), np.array([view.transit]),
+            np.array([view.free_bays]), view.to_window,
+        )  # fmt: skip
+        duty, order = batch_rule.act(self.params, self.layout.config, one)
+        return np.append(duty[0], order[0]).astype(np.int64)
 
     def __repr__(self) -> str:
         return f"FleetRule({self.name}, {self.params})"

@@ -34,6 +34,7 @@ from numpy.typing import NDArray
 
 from brake_env.env.fleet.config import FleetConfig
 from brake_env.env.fleet.env import BrakeWearFleetEnv
+from brake_env.env.fleet.model import needs
 from brake_env.env.fleet.rules import action_mask
 from brake_env.env.fleet.shop import HOT
 from brake_env.env.fleet.spaces import FLEET_FEATURES, VEHICLE_FEATURES, read_observation
@@ -81,9 +82,10 @@ def vehicle_views(obs: NDArray[Any], config: FleetConfig, with_rul: bool) -> NDA
     drive = action_mask(o.down, window, f["stock"], f["free_bays"], config.max_order)
     able = drive[: 4 * n].reshape(n, 4)[:, HOT]
     fleet = np.array([f[k] for k in FLEET_FEATURES], dtype=np.float64)
+    hot_need, work = needs(config, window)
     dispatch = np.array([
-        0 if window else config.hot_need,
-        0 if window else config.mild_need,
+        hot_need,
+        work - hot_need,
         config.window_slots if window else 0,
         int(able.sum()),
     ], dtype=np.float64)  # fmt: skip

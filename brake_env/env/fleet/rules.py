@@ -1,7 +1,8 @@
-"""The fleet's rules in one place: what a shift's production needs and what falls short of
+"""The fleet's rules on one state: what a shift's production needs and what falls short of
 it, what the window's crew, the bays and the spares can take, and which actions a vehicle
-may take. The env applies them, and every policy calls them (heuristics, the reference,
-agents rebuilding the mask from the observation): none retypes them.
+may take. Each is :mod:`.model`'s (the rules over a batch of states) on a batch of one, for
+the callers that hold one state (the reference, agents rebuilding the mask from the
+observation); none retypes them.
 
 - **Production**: ``hot_need`` vehicles on the hot route and ``mild_need`` on the mild one
   each working shift (none at a window); a vehicle on the hot route beyond its need covers
@@ -19,6 +20,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
+from brake_env.env.fleet import model
 from brake_env.env.fleet.config import FleetConfig
 from brake_env.env.fleet.shop import HOT, MILD, PARK, SERVICE
 
@@ -27,27 +29,26 @@ B = NDArray[np.bool_]
 
 
 def shortfall(config: FleetConfig, on_hot: int, on_mild: int, window: bool) -> tuple[int, int]:
-    """Vehicles short of the hot need and of the mild need in a shift."""
-    if window:
-        return 0, 0
-    extra_hot = max(on_hot - config.hot_need, 0)
-    return max(config.hot_need - on_hot, 0), max(config.mild_need - on_mild - extra_hot, 0)
+    """Vehicles short of the hot need and of the mild need in a shift
+    (:func:`.model.shortfall` on one state)."""
+    hot, mild = model.shortfall(config, on_hot, on_mild, window)
+    return int(hot), int(mild)
 
 
 def shortfall_cost(config: FleetConfig, on_hot: int, on_mild: int, window: bool) -> float:
     """What the shift's shortfall costs (``shortfall`` and ``mild_shortfall`` terms)."""
-    hot, mild = shortfall(config, on_hot, on_mild, window)
-    return config.costs.shortfall * hot + config.costs.mild_shortfall * mild
+    return float(model.shortfall_cost(config, on_hot, on_mild, window))
 
 
 def fill_needs(config: FleetConfig, order: I64, duty: I64) -> tuple[I64, I64]:
     """Vehicles ``order`` (able to drive, most wanted on the ramp first) fill the hot need,
     then the mild need, in place in ``duty`` (the others keep theirs); returns the vehicles
-    sent to each."""
-    hot, mild = config.hot_need, config.hot_need + config.mild_need
-    duty[order[hot:mild]] = MILD
-    duty[order[:hot]] = HOT
-    return order[:hot], order[hot:mild]
+    sent to each, in ``order`` (:func:`.model.fill_needs` on one state)."""
+    able = np.zeros(len(duty), dtype=bool)
+    able[order] = True
+    ranked = np.concatenate([order, np.flatnonzero(~able)])
+    hot, drift = model.fill_needs(config, ranked[None], able[None], duty[None])
+    return order[hot[0][order]], order[drift[0][order]]
 
 
 def fits_capacity(
@@ -55,18 +56,9 @@ def fits_capacity(
 ) -> bool:
     """Whether the pad fits ``fits`` are within the spares, the window's crew (at a window)
     and the free bays (visits of vehicles not down, between windows)."""
-    n = int(fits.sum())
-    if n > stock or (window and n > config.window_slots):
-        return False
-    return window or int((fits & ~down).sum()) <= free_bays
-
-
-def room_for(config: FleetConfig, window: bool, down: bool, slots: int, bays: int) -> bool:
-    """Whether one more fit (a spare in hand) has room: a crew slot at a window, else a
-    bay unless the vehicle is down in the shop already."""
-    if window:
-        return slots > 0
-    return down or bays > 0
+    ok = model.within_capacity(config, np.asarray(fits)[None], down=down, window=window,
+                               stock=stock, free=free_bays)  # fmt: skip
+    return bool(ok[0])
 
 
 def action_mask(
@@ -76,9 +68,7 @@ def action_mask(
     the rule of the module docstring, from what the observation shows."""
     n = len(down)
     m = np.ones((n, 4), dtype=bool)
-    m[:, [HOT, MILD]] = ~(down | window)[:, None]
+    m[:, [HOT, MILD]] = model.can_drive(down, window)[:, None]
     m[:, PARK] = True
-    m[:, SERVICE] = stock > 0
-    if not window:
-        m[~down, SERVICE] &= free_bays > 0
+    m[:, SERVICE] = model.service_allowed(down, window, stock, free_bays)
     return np.concatenate([m.ravel(), np.ones(max_order + 1, dtype=bool)])

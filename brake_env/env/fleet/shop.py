@@ -25,9 +25,11 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
+from brake_env.env.fleet import model
 from brake_env.env.fleet.config import FleetConfig
+from brake_env.env.fleet.model import HOT, MILD, PARK, SERVICE
 
-HOT, MILD, PARK, SERVICE = 0, 1, 2, 3
+__all__ = ["ACTIONS", "HOT", "MILD", "PARK", "SERVICE", "Plan", "Workshop"]
 ACTIONS = ("hot", "mild", "park", "service")
 I64 = NDArray[np.int64]
 B = NDArray[np.bool_]
@@ -86,21 +88,17 @@ class Workshop:
 
     def free_bays(self) -> int:
         """Bays left for service visits after the vehicles down."""
-        return max(self.config.bays - int((self.down > 0).sum()), 0)
+        return int(model.free_bays(self.config.bays, self.down))
 
     def receive(self) -> int:
         """Orders due this shift go into stock; returns how many pads arrived."""
-        got = int(self.transit[0])
-        self.transit[:-1] = self.transit[1:]
-        self.transit[-1] = 0
-        self.stock += got
-        return got
+        got, self.transit[:] = model.receive(self.transit)
+        self.stock += int(got)
+        return int(got)
 
     def fit_waiting(self) -> B:
         """Failed vehicles waiting for a spare get one, in vehicle order."""
-        fit = np.zeros(self.config.n_vehicles, dtype=bool)
-        for v in np.flatnonzero(self.waiting)[: self.stock]:
-            fit[v] = True
+        fit = model.fit_waiting(self.waiting, self.stock)
         self.stock -= int(fit.sum())
         self.waiting &= ~fit
         return fit
@@ -111,59 +109,40 @@ class Workshop:
         down = self.down > 0
         plan = Plan.idle(n)
         asks = duty == SERVICE
-        order = np.lexsort((np.arange(n), -pad_age))  # most events first, then index
-        first = asks & (down | window)  # no bay needed
-        slots = self.config.window_slots
-        for v in order[first[order]]:
-            if window and slots == 0:
-                plan.deferred.append((int(v), "crew"))
-            elif self._fit(plan, int(v), plan.window_fit if window else plan.shop_fit):
-                slots -= 1
-        bays = self.free_bays()
-        for v in order[(asks & ~first)[order]]:
-            if bays == 0:
-                plan.deferred.append((int(v), "bay"))
-            elif self._fit(plan, int(v), plan.visit):
-                bays -= 1
-        drives = (duty == HOT) | (duty == MILD)
-        for v in np.flatnonzero(drives & (down | window)):
-            why = "window" if window else "down"
-            plan.refused.append((int(v), ACTIONS[int(duty[v])], why))
-        if not window:  # (a Python bool: ~True is -2, not False)
-            ok = drives & ~down
-            plan.route[ok] = duty[ok]
+        order = model.workshop_order(pad_age, down, window)
+        admitted, reason = model.admit(self.config, asks[None], order, down=down, window=window,
+                                       stock=self.stock, free=self.free_bays())  # fmt: skip
+        fit, why = admitted[0], reason[0]
+        plan.deferred = [(int(v), model.REASONS[why[v]]) for v in order[0] if why[v]]
+        if window:
+            plan.window_fit = fit
+        else:
+            plan.shop_fit, plan.visit = fit & down, fit & ~down
+        self.stock -= int(fit.sum())
+        self.waiting &= ~fit  # (a failed vehicle still waiting gets this spare)
+        drives, able = (duty == HOT) | (duty == MILD), model.can_drive(down, window)
+        for v in np.flatnonzero(drives & ~able):
+            plan.refused.append((int(v), ACTIONS[int(duty[v])], "window" if window else "down"))
+        ok = drives & able
+        plan.route[ok] = duty[ok]
         return plan
-
-    def _fit(self, plan: Plan, v: int, into: B) -> bool:
-        if self.stock == 0:
-            plan.deferred.append((v, "spare"))
-            return False
-        self.stock -= 1
-        into[v] = True
-        self.waiting[v] = False  # (a failed vehicle still waiting gets this spare)
-        return True
 
     def fail(self, failed: B) -> B:
         """Brake failures at the end of a shift: the vehicles go down; each gets a spare
         now if there is one, else waits. Returns the vehicles fitted now."""
-        self.down[failed] = self.config.failure_repair_shifts
-        self.failed_down[failed] = True
-        self.waiting |= failed
+        model.fail(self.config, self.down, self.failed_down, self.waiting, failed)
         return self.fit_waiting()
 
     def break_down(self, broken: B) -> None:
         """Other breakdowns at the end of a shift: the vehicles go to the shop."""
-        self.down[broken] = self.config.breakdown_repair_shifts
-        self.failed_down[broken] = False
+        model.break_down(self.config, self.down, self.failed_down, broken)
 
     def order(self, quantity: int) -> None:
         """An order placed this shift arrives at the start of shift + lead time."""
-        self.transit[-1] += quantity
+        model.place_order(self.transit, quantity)
 
     def end_shift(self, new_down: B) -> None:
         """A shift in the shop is done for the vehicles that were down during it; a failed
         vehicle waiting for a spare stays down."""
-        was = (self.down > 0) & ~new_down
-        self.down[was] -= 1
-        self.down[was & self.waiting] = np.maximum(self.down[was & self.waiting], 1)
+        self.down[:] = model.end_shift(self.down, self.waiting, new_down)
         self.failed_down &= self.down > 0
