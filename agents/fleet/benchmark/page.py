@@ -1,5 +1,6 @@
-"""The leaderboard of ``docs/benchmark.md``, written from the shipped baselines by
-``brakewear fleet-leaderboard``: per suite, each baseline's net cost on the test split with
+"""The leaderboard of ``docs/benchmark.md``, written from the shipped baselines and the scored
+entries (:mod:`agents.fleet.benchmark.entries`) by ``brakewear fleet-leaderboard``: per
+suite, each baseline's and entry's net cost on the test split with
 its 95% bootstrap interval over episodes, its paired ratio to the bound, its paired
 difference from the suite's best, the predictors' rules paired (the twin against the window
 model), the compute and the command that made them.
@@ -18,6 +19,7 @@ import numpy as np
 from scipy.stats import bootstrap
 
 from agents.fleet.benchmark.baselines import read_baselines
+from agents.fleet.benchmark.entries import read_entries
 from agents.fleet.benchmark.suite import read_suite, shipped_suites
 from agents.fleet.evaluation.costs import paired_interval
 
@@ -26,39 +28,49 @@ END = "<!-- /leaderboard -->"
 
 
 def leaderboard() -> str:
-    """The leaderboard's Markdown, every shipped suite with shipped baselines."""
+    """The leaderboard's Markdown: every shipped suite, its baselines and scored entries."""
     parts = []
     for name in shipped_suites():
         suite = read_suite(name)
-        shipped = read_baselines(suite)
-        if shipped is None:
+        shipped, entries = read_baselines(suite), read_entries(suite)
+        if shipped is None and not entries:
             parts.append(f"### `{name}`\n\nNo baselines shipped yet (`brakewear fleet-baselines"
                          f" --suite {name}`).\n")  # fmt: skip
             continue
-        parts.append(suite_section(name, suite.description, shipped))
+        parts.append(suite_section(name, suite.description, shipped, entries))
     return "\n".join(parts)
 
 
-def suite_section(name: str, description: str, shipped: dict[str, Any]) -> str:
-    """One suite's table and notes."""
-    b = shipped["baselines"]
-    order = sorted(b, key=lambda k: b[k]["net"])
-    best = np.asarray(b[order[0]]["episodes"]["net"])
-    bound = shipped.get("bound")
+def suite_section(
+    name: str, description: str, shipped: dict[str, Any] | None,
+    entries: dict[str, dict[str, Any]] | None = None,
+) -> str:  # fmt: skip
+    """One suite's table (baselines and scored entries, best first) and notes."""
+    entries = entries or {}
+    b = dict(shipped["baselines"]) if shipped is not None else {}
+    clash = sorted(set(b) & set(entries))
+    if clash:
+        raise ValueError(f"suite {name!r}: entries {clash} have a baseline's name; rename"
+                         " their files")  # fmt: skip
+    rows = {**b, **{k: {**e, "kind": f"{e['kind']} (entry)"} for k, e in entries.items()}}
+    order = sorted(rows, key=lambda k: rows[k]["net"])
+    best = np.asarray(rows[order[0]]["episodes"]["net"])
+    bound = shipped.get("bound") if shipped is not None else None
     lines = [f"### `{name}`", "", description + ".", "",
              "| policy | kind | net cost (95%) | minus the best (paired) | ratio to the bound |",
              "| --- | --- | --- | --- | --- |"]  # fmt: skip
     for k in order:
-        x = np.asarray(b[k]["episodes"]["net"])
+        x = np.asarray(rows[k]["episodes"]["net"])
         minus = "" if k == order[0] else _iv(paired_interval(x, best, "difference"))
-        lines.append(f"| `{k}` | {b[k]['kind']} | {_mean_iv(x)} | {minus} | {_ratio(x, bound)} |")
+        kind, ratio = rows[k]["kind"], _ratio(x, bound)
+        lines.append(f"| `{k}` | {kind} | {_mean_iv(x)} | {minus} | {ratio} |")
     if bound is not None:
         lines.append(f"| bound | Lagrangian ({bound['iterations']} price vectors) |"
                      f" {_mean_iv(np.asarray(bound['episodes']))} | | 1 |")  # fmt: skip
-    n, secs = len(shipped["seeds"]), shipped.get("seconds")
-    made = f" Made in {secs / 3600:.2f} h of wall time (2 cores, shared)" if secs else ""
-    lines += ["", f"{n} test episodes from seed {shipped['seeds'][0]}; net cost per"
-              f" vehicle-shift in USD.{made}: `{shipped['command']}`"]  # fmt: skip
+    seeds = shipped["seeds"] if shipped is not None else rows[order[0]]["episodes"]["seed"]
+    lines += ["", f"{len(seeds)} test episodes from seed {seeds[0]}; net cost per"
+              " vehicle-shift in USD."]  # fmt: skip
+    lines += _made(shipped) + _entry_notes(entries)
     if "twin-rule" in b and "window-rule" in b:
         twin, window = (np.asarray(b[k]["episodes"]["net"]) for k in ("twin-rule", "window-rule"))
         d = paired_interval(twin, window, "difference")
@@ -67,6 +79,33 @@ def suite_section(name: str, description: str, shipped: dict[str, Any]) -> str:
                    else "no difference shown")  # fmt: skip
         lines += ["", f"Twin's rule minus the window model's: {_iv(d)} ({verdict})."]
     return "\n".join(lines) + "\n"
+
+
+def _made(shipped: dict[str, Any] | None) -> list[str]:
+    """How the baselines were made: the file's command, and each one rerun on its own."""
+    if shipped is None:
+        return ["", "No baselines shipped yet (`brakewear fleet-baselines`)."]
+    secs = shipped.get("seconds")
+    made = f" in {secs / 3600:.2f} h of wall time (2 cores, shared)" if secs else ""
+    out = ["", f"Baselines made{made}: `{shipped['command']}`"]
+    for k, v in shipped["baselines"].items():
+        if "command" in v:
+            out.append(f"- `{k}` rerun: `{v['command']}`")
+    if shipped.get("bound", {}).get("command"):
+        out.append(f"- bound rerun: `{shipped['bound']['command']}`")
+    return out
+
+
+def _entry_notes(entries: dict[str, dict[str, Any]]) -> list[str]:
+    """Each scored entry's compute and commands."""
+    out = []
+    for k, e in entries.items():
+        c = e["compute"]
+        steps = "no training" if c["training_steps"] is None else f"{c['training_steps']:,}"
+        steps += "" if c["training_steps"] is None else " training steps"
+        cmds = "; ".join(f"`{s}`" for s in c["commands"])
+        out.append(f"- `{k}` (scored entry): {steps}, {c['cpu_hours']:.2f} CPU-hours: {cmds}")
+    return ["", "Scored entries (`agents/fleet/benchmark/entries/`):", "", *out] if out else []
 
 
 def write_page(path: str | Path) -> Path:
