@@ -9,13 +9,15 @@ start). Printed per model, with the CPU time of the model, the starts and the se
 - ``slack 1 shift``: the same with one hot shift of slack on every pad (the old cover);
 - ``relaxed``: :meth:`BoundModel.relaxed`: the slack sized from the realised wear at
   ``--coverage`` (the bound now);
-- ``relaxed+layers``: the same with mild wear by the pad's layer (K cut at 3 sd).
+- ``relaxed+layers``: the same with mild wear by the pad's layer (K cut at 3 sd);
+- ``relaxed+orders``: the same with each fit beyond the initial stock charged its share of
+  an order (``order / max_order``; still a relaxation: :mod:`agents.fleet.policies.lagrangian`).
 
 Also printed: the realised slack at a few coverages, and the mild route's spread against the
 hot route's (both on the env's own pad code).
 
 Run: ``.venv/bin/python benchmarks/analysis/fleet_bound_relaxation.py [--iterations 100]
-[--models expectation,slack,relaxed,relaxed+layers]``
+[--models expectation,slack,relaxed,relaxed+layers,relaxed+orders]``
 """
 
 from __future__ import annotations
@@ -41,8 +43,10 @@ def model_of(name: str, args: argparse.Namespace, cfg: FleetConfig, atlas: Atlas
         return BoundModel.build(cfg, atlas, credit=True)
     if name == "slack":
         return BoundModel.build(cfg, atlas, slack_shifts=1.0, credit=True)
-    layers = name == "relaxed+layers"
-    return BoundModel.relaxed(cfg, atlas, args.units, args.coverage, credit=True, layers=layers)
+    layers, orders = "+layers" in name, "+orders" in name
+    return BoundModel.relaxed(
+        cfg, atlas, args.units, args.coverage, credit=True, orders=orders, layers=layers
+    )
 
 
 def one_bound(name: str, args: argparse.Namespace, suite: Suite, atlas: Atlas) -> None:

@@ -44,11 +44,14 @@ INTERVAL = ("rul_mean", "rul_lower", "rul_upper")
 
 
 def study_bound(
-    config: FleetStudyConfig, atlas: Atlas, iterations: int, orders: bool = False
+    config: FleetStudyConfig, atlas: Atlas, iterations: int, orders: bool = True
 ) -> tuple[SearchResult, list[float]]:
     """The price search for the evaluation episodes' mean start (``iterations`` steps), and
-    each episode's bound at the best prices [per vehicle-shift]; with ``orders`` each
-    service pays its least share of an order (:meth:`BoundModel.build`)."""
+    each episode's bound at the best prices [per vehicle-shift]. With ``orders`` (the
+    study's bound) each service beyond the initial stock pays its least share of an order
+    (:mod:`agents.fleet.policies.lagrangian`): still a relaxation, and 0.039 higher on the
+    default suite's dev episodes (1.5402 against 1.5014;
+    ``benchmarks/analysis/fleet_bound_relaxation.py --models relaxed,relaxed+orders``)."""
     cfg = config.fleet
     env = BrakeWearFleetEnv(cfg, atlas=atlas)
     model = BoundModel.relaxed(cfg, atlas, credit=True, orders=orders)
