@@ -8,6 +8,12 @@ predictor's RUL: its heuristic chosen by the tuning episodes, its parameters), `
 rule) or ``reference`` (the perfect-information reference, 2 vehicles only); ``bound`` is the
 Lagrangian bound on each test episode. The rules can be rebuilt from their settings and
 re-scored exactly (:func:`rebuild`); the others are read.
+
+Some baselines can be remade alone (``fleet-baselines --only bound,priced``) and merged into
+the shipped file (:func:`merge`): each remade one records its own ``command`` (the file's
+top-level ``command`` stays for the rest). ``bound`` and ``priced`` are made together (the
+price-directed policy acts on the bound's prices) by the study's bound unit alone
+(:func:`bound_baselines`), without tuning any rule.
 """
 
 from __future__ import annotations
@@ -18,8 +24,8 @@ from typing import Any
 
 from agents.fleet.benchmark.suite import Suite
 from agents.fleet.settings import FleetStudyConfig
-from agents.fleet.study.build import rebuild_rule, rul_env
-from agents.fleet.study.planners import PRICED
+from agents.fleet.study.build import episodes_of, rebuild_rule, rul_env
+from agents.fleet.study.planners import PRICED, bound_unit
 from agents.fleet.study.summary import REFERENCE
 from agents.fleet.study.units import study_fit
 from brake_env.model.atlas import Atlas
@@ -112,3 +118,68 @@ def rebuild(
     p, h = entry["predictor"], entry["policy"]
     fitted = None if p == ORACLE else study_fit(config, p, atlas, atlas)
     return rul_env(config, atlas, p, fitted), rebuild_rule(config, h, entry["params"])
+
+
+BOUND = "bound"
+
+
+def split_only(only: str) -> tuple[set[str], tuple[str, ...]]:
+    """``--only``'s names, and the predictors whose rules (or rollouts) it names.
+
+    Raises:
+        ValueError: A name that is not a baseline's (named).
+    """
+    names = {n.strip() for n in only.split(",") if n.strip()}
+    bad = sorted(n for n in names if n not in (BOUND, "priced", "reference")
+                 and not n.endswith(("-rule", "-rollout")))  # fmt: skip
+    if bad or not names:
+        raise ValueError(f"--only {only!r}: {bad or 'nothing'} not baseline names (bound,"
+                         " priced, reference, PREDICTOR-rule, PREDICTOR-rollout)")  # fmt: skip
+    preds = tuple(sorted({n.rsplit("-", 1)[0] for n in names if n.endswith(("-rule", "-rollout"))}))
+    return names, preds
+
+
+def bound_baselines(suite: Suite, config: FleetStudyConfig, atlas: Atlas) -> dict[str, Any]:
+    """``bound`` and ``priced`` of a suite's test split alone (the study's bound unit), in
+    the baselines file's format (:func:`from_summary`'s)."""
+    u = bound_unit(config, atlas)
+    eps = episodes_of(u["priced"])
+    net, cost = [e.net for e in eps], [e.per_vehicle_shift for e in eps]
+    priced = {"kind": "priced", "predictor": ORACLE, "policy": PRICED,
+              "net": sum(net) / len(net), "cost": sum(cost) / len(cost),
+              "episodes": {"seed": [e.seed for e in eps], "net": net, "cost": cost}}  # fmt: skip
+    bound = [float(b) for b in u["bound"]]
+    return {"suite": suite.name, "suite_digest": suite.digest, "baselines": {"priced": priced},
+            "bound": {"net": sum(bound) / len(bound), "episodes": bound,
+                      "iterations": int(u["iterations"])},
+            "seconds": sum(u["seconds"].values())}  # fmt: skip
+
+
+def merge(
+    shipped: dict[str, Any], made: dict[str, Any], names: set[str], command: str
+) -> dict[str, Any]:
+    """``shipped`` with the baselines ``names`` (and ``bound``) replaced by ``made``'s, each
+    with its ``command`` and ``seconds``; the rest kept as they were.
+
+    Raises:
+        ValueError: The two are of other suite digests or test seeds, or ``made`` lacks a
+            named baseline.
+    """
+    if made["suite_digest"] != shipped["suite_digest"]:
+        raise ValueError(f"--only: the file to merge into is of suite digest"
+                         f" {shipped['suite_digest']}, and suite {made['suite']!r} is"
+                         f" {made['suite_digest']} (rerun the whole suite)")  # fmt: skip
+    have = set(made["baselines"]) | ({BOUND} if "bound" in made else set())
+    if sorted(names - have):
+        raise ValueError(f"--only: {sorted(names - have)} were not made (the suite's fleet"
+                         " may not have them, e.g. no bound outside the 'id' regime)")  # fmt: skip
+    out = {**shipped, "baselines": dict(shipped["baselines"])}
+    stamp = {"command": command, "seconds": made.get("seconds")}
+    for n in sorted(names - {BOUND}):
+        b = made["baselines"][n]
+        if b["episodes"]["seed"] != shipped["seeds"]:
+            raise ValueError(f"--only: {n} was made on other test episodes than the file's")
+        out["baselines"][n] = {**b, **stamp}
+    if BOUND in names:
+        out["bound"] = {**made["bound"], **stamp}
+    return out

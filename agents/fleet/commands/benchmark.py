@@ -63,6 +63,15 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
     b.add_argument("--trials-best", type=int_at_least(1), default=45, help="the rule's Optuna")
     b.add_argument("--bound-iterations", type=int_at_least(0), default=200)
     b.add_argument("--rollout", default="", help="predictors given the rollout planner")
+    b.add_argument(
+        "--only", default=None, metavar="NAMES",
+        help="remake only these baselines (e.g. bound,priced or twin-rule) and merge them into"
+        " --into, keeping the others; each records its command",
+    )  # fmt: skip
+    b.add_argument(
+        "--into", default=None, metavar="FILE",
+        help="--only's file to merge into (default: the suite's shipped baselines file)",
+    )  # fmt: skip
     add_runner_args(b, workers=2)
     b.set_defaults(func="agents.fleet.commands.benchmark:cmd_fleet_baselines")
     lb = sub.add_parser(
@@ -153,15 +162,12 @@ def cmd_fleet_baselines(args: argparse.Namespace) -> dict[str, Any]:
     from brake_env.cli.common import make_runner
 
     suite = read_suite(args.suite)
-    bound = args.bound_iterations
-    if bound and suite.fleet_file.config.regime != "id":
-        print(f"suite {suite.name}: no bound (the Lagrangian bound models the 'id' wear regime"
-              f" only; this fleet's is {suite.fleet_file.config.regime!r})")  # fmt: skip
-        bound = 0
+    if args.only is not None:
+        return _only(suite, args)
     config = suite.study_config(
         "test", predictors=tuple(p for p in args.predictors.split(",") if p),
         heuristics=("best combination",), trials_best=args.trials_best,
-        bound_iterations=bound,
+        bound_iterations=_bound_iterations(suite, args.bound_iterations),
         rollout_predictors=tuple(p for p in args.rollout.split(",") if p),
     )  # fmt: skip
     out = Path(args.out)
@@ -173,6 +179,47 @@ def cmd_fleet_baselines(args: argparse.Namespace) -> dict[str, Any]:
     print(f"wrote {out / 'baselines.json'} ({len(made['baselines'])} baselines"
           f"{', the bound' if 'bound' in made else ''})")  # fmt: skip
     return made
+
+
+def _bound_iterations(suite: Any, iterations: int) -> int:
+    if iterations and suite.fleet_file.config.regime != "id":
+        print(f"suite {suite.name}: no bound (the Lagrangian bound models the 'id' wear regime"
+              f" only; this fleet's is {suite.fleet_file.config.regime!r})")  # fmt: skip
+        return 0
+    return iterations
+
+
+def _only(suite: Any, args: argparse.Namespace) -> dict[str, Any]:
+    """``--only``: the named baselines remade (the bound and the priced policy by the bound
+    unit alone, rules by a study of their predictors) and merged into ``--into``."""
+    from agents.fleet.benchmark import baselines as bl
+    from agents.fleet.commands.cli import study_and_report
+    from brake_env.cli.common import make_runner
+
+    names, preds = bl.split_only(args.only)
+    into = Path(args.into) if args.into else bl.shipped_path(suite)
+    shipped = bl.read_baselines(suite, into)  # refuses a file of another suite digest
+    if shipped is None:
+        raise ValueError(f"--only: no baselines file {into} to merge into (run the suite whole)")
+    bound = _bound_iterations(suite, args.bound_iterations) if names & {"bound", "priced"} else 0
+    rollout = tuple(p for p in preds if f"{p}-rollout" in names)
+    config = suite.study_config("test", predictors=preds or ("oracle",),
+                                heuristics=("best combination",), trials_best=args.trials_best,
+                                bound_iterations=bound, rollout_predictors=rollout)  # fmt: skip
+    command = "brakewear " + shlex.join(sys.argv[1:])
+    out, atlas = Path(args.out), suite_atlas(suite, args)
+    if preds or "reference" in names:
+        with make_runner(args) as runner:
+            summary = study_and_report(config, atlas, out, runner, quiet=args.quiet)
+        made = bl.from_summary(suite, summary, command)
+    else:
+        made = bl.bound_baselines(suite, config, atlas) if bound else {
+            "suite": suite.name, "suite_digest": suite.digest, "baselines": {}}  # fmt: skip
+    merged = bl.merge(shipped, made, names, command)
+    write_json(made, out / "made.json")
+    write_json(merged, into)
+    print(f"merged {', '.join(sorted(names))} into {into} (made: {out / 'made.json'})")
+    return merged
 
 
 def cmd_fleet_leaderboard(args: argparse.Namespace) -> None:
