@@ -25,9 +25,10 @@ class TwinConfig:
             (the median is robust to the long tail of slow-wear hypotheses early on).
         min_prior_log_std: Floor on the fitted spread of log K across training pads [-].
         min_temp_sigma_c: Floor on the fitted temperature noise [K].
-        chunk_events: Events of a pad taken in together, and read out together where
-            estimates are wanted at many of them (bounds memory to about ``chunk_events *
-            n_grid * 8`` bytes per array) [-].
+        chunk_events: Events of a pad taken in and read out together where estimates are
+            wanted at many of them (bounds memory to about ``chunk_events * n_grid * 8``
+            bytes per array; rows taken in on the whole grid go in larger blocks,
+            ``twin.fleet.TAKE_IN_ROWS``) [-].
         fit_max_events: Training events used to fit the noise model (evenly strided) [-].
     """
 

@@ -28,6 +28,10 @@ from twin.posterior import F64, Summary, TwinGrid
 NEGLIGIBLE_LOG = 60.0  # log-posterior margin below which grid points are left out [-]
 DENSE_EVERY = 32  # a run asking for estimates more often than every this many events is
 # read block by block from a window of the grid
+# Rows whose evidence is computed together when taken in on the whole grid: the arrays are
+# (rows, layers), ~80 layers, not (rows, grid points), so many more rows fit than a read-out
+# window's chunk; fewer, larger calls cost ~15% less CPU (a cost study's hot path).
+TAKE_IN_ROWS = 4096
 
 
 class TwinFleet(SlotFleet):
@@ -139,8 +143,8 @@ class TwinFleet(SlotFleet):
         """Add the events at rows ``idx`` (in row order) to their slots' difference arrays."""
         width = self._diff.shape[1]
         flat = self._diff.reshape(-1)
-        for c0 in range(0, idx.size, self.chunk):
-            r = idx[c0 : c0 + self.chunk]
+        for c0 in range(0, idx.size, TAKE_IN_ROWS):
+            r = idx[c0 : c0 + TAKE_IN_ROWS]
             _, vals, at = self._evidence(take_events(events, r))
             at += (pads[r] * width)[:, None]
             np.add.at(flat, at.ravel(), vals.ravel())

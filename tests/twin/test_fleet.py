@@ -23,6 +23,7 @@ from brake_env.prognostics.fleet import ESTIMATE_FIELDS
 from brake_env.prognostics.protocol import EventBatch, RULEstimate, iter_runs
 from tests.twin.conftest import TEST_CONFIG
 from twin import DigitalTwin, TwinCalibration, TwinConfig
+from twin.fleet import TAKE_IN_ROWS
 
 F64 = NDArray[np.float64]
 RTOL = 1e-9
@@ -208,6 +209,27 @@ def test_fleet_equals_single_pad_updates(
             expect = RULEstimate(*(getattr(want[i], f)[r[sel]] for f in ESTIMATE_FIELDS))
             got = RULEstimate(*(getattr(est, f)[sel] for f in ESTIMATE_FIELDS))
             assert_same(got, expect)
+
+
+def test_fleet_takes_in_a_cost_study_call(
+    atlas: Atlas, dataset: Dataset, fitted: DigitalTwin
+) -> None:
+    """A cost study's call: every pad's whole segment at once, an estimate every 500 events,
+    so each round's rows (every pad's next 500 events, more than a read-out chunk) are taken
+    in on the whole grid in one block: the estimates of single-pad updates."""
+    segs = _segments(dataset)
+    fleet = fitted.fleet(len(segs))
+    p = np.concatenate([np.full(len(s), i) for i, s in enumerate(segs)])
+    ask = np.concatenate([np.arange(len(s)) % 500 == 499 for s in segs])
+    assert fitted.config.chunk_events < len(segs) * 500 <= TAKE_IN_ROWS
+    est = fleet.update(p, _concat(segs), ask)
+    at = [np.flatnonzero(np.arange(len(s)) % 500 == 499) for s in segs]
+    for i, ev in enumerate(segs):
+        fitted.reset()
+        one = fitted.update(ev)
+        sel = p[ask] == i
+        expect = RULEstimate(*(getattr(one, f)[at[i]] for f in ESTIMATE_FIELDS))
+        assert_same(RULEstimate(*(getattr(est, f)[sel] for f in ESTIMATE_FIELDS)), expect)
 
 
 def test_fleet_slot_reset_installs_a_new_pad(dataset: Dataset, fitted: DigitalTwin) -> None:
