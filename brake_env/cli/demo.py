@@ -10,6 +10,7 @@ from pathlib import Path
 from typing import Any
 
 from brake_env.cli.common import add_common_args, int_at_least, load_atlas, plugins
+from brake_env.cli.demo_stages import run_stages
 from brake_env.cli.simulate import (
     SimulateJob,
     add_simulation_args,
@@ -43,8 +44,8 @@ class DemoContext:
 
 DemoStage = Callable[[DemoContext], tuple[Any, str]]
 # What the stages that compare policies share: the paper's three predictors between no
-# prognostics and the oracle, and the default of --workers (a local Ray's CPUs for their
-# units; 0 or without Ray: in this process).
+# prognostics and the oracle; and the default of --workers: the stages side by side in two
+# processes (brake_env.cli.demo_stages), each stage's units in its own process.
 DEMO_PREDICTORS = ("none", "physics", "data", "twin", "oracle")
 DEMO_WORKERS = 2
 # The demo's run-to-failure datasets (brakewear simulate's defaults: 10, 10, 5, 5).
@@ -67,16 +68,12 @@ def cmd_demo(args: argparse.Namespace) -> dict[str, Any]:
         summary = write_datasets(atlas, job)
         times["datasets"] = _lap(clock)
         ctx = DemoContext(args, out, out / "atlas" / "atlas.npz", out / "data")
-        sections = []
-        for i, ep in enumerate(stages, start=3):
-            name = ep.name.split("-", 1)[-1]
-            print(f"\n== {i}/{n} {name}")
-            stage: DemoStage = ep.load()
-            ctx.results[name], section = stage(ctx)
-            sections.append(section)
-            times[name] = _lap(clock)
+        workers = getattr(args, "workers", DEMO_WORKERS)
+        runs = run_stages(ctx, stages, workers, 3, n)
+        times.update({r.name: (r.wall, r.cpu) for r in runs})
         times["total"] = (clock.wall(), clock.cpu())
-    report = _demo_report(atlas_info, summary, times)
+    report = _demo_report(atlas_info, summary, times, side_by_side=workers >= 2 and len(runs) > 1)
+    sections = [r.section for r in runs]
     write_text(report + "".join("\n" + s for s in sections), out / "report.md")
     summary["stage_seconds"] = {k: {"wall": w, "cpu": c} for k, (w, c) in times.items()}
     print(f"\nreport: {out / 'report.md'}")
@@ -89,18 +86,27 @@ def _lap(clock: StageClock) -> tuple[float, float]:
     return wall, cpu
 
 
-def _times_table(times: dict[str, tuple[float, float]]) -> str:
+def _times_table(times: dict[str, tuple[float, float]], side_by_side: bool) -> str:
     rows = "\n".join(f"| {k} | {w:.1f} | {c:.1f} |" for k, (w, c) in times.items())
+    beside = (
+        "\n\nThe stages after the datasets ran side by side in two processes: their wall"
+        " times overlap and add up to more than the total."
+        if side_by_side
+        else ""
+    )
     return f"""| stage | wall s | CPU s |
 |---|---|---|
 {rows}
 
 CPU is user + system time of this process and every process it started (a local Ray's
-workers included), read from /proc each second."""
+workers included), read from /proc each second.{beside}"""
 
 
 def _demo_report(
-    atlas: dict[str, Any], s: dict[str, Any], times: dict[str, tuple[float, float]]
+    atlas: dict[str, Any],
+    s: dict[str, Any],
+    times: dict[str, tuple[float, float]],
+    side_by_side: bool,
 ) -> str:
     life = s["life_events"]
     rising = atlas["mean_temp_strictly_rising_everywhere"]
@@ -116,7 +122,7 @@ Atlas `{atlas["hash"][:16]}`.
 
 ## Stage times
 
-{_times_table(times)}
+{_times_table(times, side_by_side)}
 
 ## Calibration
 
@@ -143,7 +149,8 @@ Atlas `{atlas["hash"][:16]}`.
 
 
 def demo_runner(args: argparse.Namespace) -> Runner:
-    """Where a stage's units run: a local Ray of ``--workers`` CPUs, else this process."""
+    """Where a stage's units run: a local Ray of ``--workers`` CPUs, else this process
+    (side by side, :mod:`brake_env.cli.demo_stages` gives each stage ``workers=0``)."""
     workers = getattr(args, "workers", DEMO_WORKERS)
     return Runner(workers) if workers and ray_available() else Runner(0)
 
@@ -160,8 +167,9 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
         "--workers",
         type=int_at_least(0),
         default=DEMO_WORKERS,
-        help="CPUs of a local Ray for the comparison's and the fleet's units (0: all in this"
-        " process, no Ray)",
+        help="processes the stages after the datasets run in side by side, each stage's units"
+        " in its own process (0: one stage after the other, all in this process; 1: the"
+        " same, the comparison's and the fleet's units on a local Ray of 1 CPU)",
     )
     add_simulation_args(d, "parquet")
     # Smaller datasets than `simulate`'s: every later stage fits its predictors on
