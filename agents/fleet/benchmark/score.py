@@ -5,8 +5,11 @@ The policy acts on the suite's fleet env with the suite's ``observe`` predictor'
 appended (mean, hot and mild route, per vehicle, in shifts: the observation the shipped
 rules act on), and is made by ``FACTORY(env)``. What it returns may be an object with SB3's
 ``predict`` (with an ``action_masks`` parameter, as sb3-contrib's MaskablePPO has, it is
-given the env's masks) or a callable from observation to action. Every action is checked
-against the env's mask. The baselines are read from the suite's shipped file, never rerun;
+given the env's masks), a callable from observation to action, or a PettingZoo per-agent
+policy (a callable of (observation, agent), or a mapping of agent to callable), driven
+through the fleet's PettingZoo Parallel env on the same episodes
+(:mod:`agents.fleet.benchmark.per_agent`). Every action is checked against the env's mask.
+The baselines are read from the suite's shipped file, never rerun;
 each is paired with the policy on the test episodes they share (a moved test split shares
 none: re-score a baseline there as ``baseline:NAME``).
 """
@@ -26,6 +29,7 @@ from typing import Any
 import numpy as np
 
 from agents.fleet.benchmark.baselines import read_baselines, rebuild
+from agents.fleet.benchmark.per_agent import PerAgent, is_per_agent
 from agents.fleet.benchmark.suite import Suite
 from agents.fleet.evaluation.costs import EpisodeCost, paired_interval, run_episode
 from agents.fleet.study.build import rul_env
@@ -123,7 +127,10 @@ def score(
     seeds = config.eval_seeds()
     eps: list[EpisodeCost] = []
     for seed in seeds:
-        eps.append(run_episode(env, adapted, seed, check_masks=True))
+        if isinstance(adapted, PerAgent):
+            eps.append(adapted.run(seed))
+        else:
+            eps.append(run_episode(env, adapted, seed, check_masks=True))
         if progress is not None:
             progress.update(1)
     net = [e.net for e in eps]
@@ -140,7 +147,7 @@ def score(
 def _policy(
     suite: Suite, policy: str | Callable[[Any], Any], atlas: Atlas, config: Any,
     shipped: dict[str, Any] | None,
-) -> tuple[Any, Adapted, str]:  # fmt: skip
+) -> tuple[Any, Adapted | PerAgent, str]:  # fmt: skip
     """(env, the adapted policy, its label)."""
     if isinstance(policy, str) and policy.startswith(BASELINE):
         name = policy.removeprefix(BASELINE)
@@ -155,7 +162,8 @@ def _policy(
     fitted = None if p == ORACLE else study_fit(config, p, atlas, atlas)
     env = rul_env(config, atlas, p, fitted)
     label = policy if isinstance(policy, str) else getattr(factory, "__name__", "policy")
-    return env, Adapted(factory(env), env), label
+    made = factory(env)
+    return env, PerAgent(made, env) if is_per_agent(made) else Adapted(made, env), label
 
 
 def compare(

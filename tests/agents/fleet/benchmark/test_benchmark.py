@@ -10,7 +10,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from agents.fleet.benchmark.baselines import from_summary, read_baselines
+from agents.fleet.benchmark.baselines import from_summary, read_baselines, rebuild
+from agents.fleet.benchmark.per_agent import parallel_env_of
 from agents.fleet.benchmark.score import Adapted, compare, score
 from agents.fleet.benchmark.suite import read_suite, shipped_suites
 from agents.fleet.study.run import run_fleet_study
@@ -191,3 +192,46 @@ def test_a_maskable_ppo_is_scored_with_the_env_s_masks(tiny, atlas, made) -> Non
     got = score(read_suite(tiny), factory, atlas, baselines=made, episodes=2)
     assert got["episodes"]["seed"] == [900_000, 900_001]
     assert np.isfinite(got["episodes"]["net"]).all()
+
+
+def test_a_per_agent_wrapper_of_a_rule_scores_the_rule_s_figures(tiny, atlas, made) -> None:
+    """The shipped rule written as PettingZoo users write a policy (``policy(observation,
+    agent)``, reading the Parallel env's ``state()``), driven through the fleet's Parallel
+    env: exactly the rule's per-episode figures; the same as a mapping of agent to
+    callable; an action outside an agent's mask is named with the agent and the shift."""
+    suite = read_suite(tiny)
+    config = suite.study_config("test")
+    _, rule = rebuild(suite, made["baselines"]["oracle-rule"], atlas, config)
+
+    def factory(env):
+        penv = parallel_env_of(env)
+        where = {a: i for i, a in enumerate(penv.possible_agents)}
+
+        def policy(observation, agent):
+            assert (
+                observation["observation"].shape
+                == penv.observation_space(agent)["observation"].shape
+            )
+            return int(rule.predict(penv.state())[0][where[agent]])
+
+        return policy
+
+    got = score(suite, factory, atlas, baselines=made, episodes=3)
+    want = made["baselines"]["oracle-rule"]["episodes"]
+    assert got["episodes"]["net"] == want["net"][:3]
+    assert got["episodes"]["cost"] == want["cost"][:3]
+
+    def as_mapping(env):
+        penv, policy = parallel_env_of(env), factory(env)
+        return {a: (lambda obs, a=a: policy(obs, a)) for a in penv.possible_agents}
+
+    mapped = score(suite, as_mapping, atlas, baselines=made, episodes=2)
+    assert mapped["episodes"]["net"] == want["net"][:2]
+
+    def service_always(env):
+        return lambda observation, agent: 3 if agent != "store" else 0
+
+    with pytest.raises(ValueError, match=r"broke vehicle_\d's mask at shift \d+: action 3"):
+        score(suite, service_always, atlas, baselines=made, episodes=2)
+    with pytest.raises(ValueError, match=r"no callable for \['vehicle_1', 'vehicle_2', 'store'\]"):
+        score(suite, lambda env: {"vehicle_0": print}, atlas, baselines=made, episodes=2)
