@@ -13,7 +13,7 @@ from numpy.typing import NDArray
 
 from agents.fleet.policies.view import FleetLayout, FleetView
 from brake_env.env.fleet.config import FleetConfig
-from brake_env.env.fleet.rules import fits_capacity
+from brake_env.env.fleet.rules import fits_capacity, shortfall
 from brake_env.env.fleet.shop import HOT, MILD, PARK, SERVICE
 
 I64 = NDArray[np.int64]
@@ -50,8 +50,8 @@ def cover_needs(config: FleetConfig, duty: I64, view: FleetView, min_rul: float 
         fits[v], duty[v] = False, PARK
     counts = np.bincount(duty, minlength=4)
     hot, mild = int(counts[HOT]), int(counts[MILD])
-    short_hot = max(config.hot_need - hot, 0)
-    if short_hot == 0 and mild + hot - config.hot_need >= config.mild_need:
+    short_hot, short_mild = shortfall(config, hot, mild, window=False)
+    if short_hot == short_mild == 0:
         return duty  # covered already (most shifts)
     able = ~view.down & (view.rul >= min_rul)
 
@@ -65,7 +65,7 @@ def cover_needs(config: FleetConfig, duty: I64, view: FleetView, min_rul: float 
     duty[to_hot] = HOT
     hot += len(to_hot)
     idle = idle[~np.isin(idle, to_hot)]
-    k = max(config.mild_need - int((duty == MILD).sum()) - max(hot - config.hot_need, 0), 0)
+    _, k = shortfall(config, hot, int((duty == MILD).sum()), window=False)
     duty[idle[:k]] = MILD
     return duty
 

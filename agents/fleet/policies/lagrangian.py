@@ -78,6 +78,7 @@ from agents.fleet.policies.lagrangian_wear import (
     realised_slack,
 )
 from brake_env.env.fleet.config import FleetConfig
+from brake_env.env.fleet.model import needs
 from brake_env.env.fleet.routes import HOT as HOT_ROUTE
 from brake_env.env.fleet.routes import route_wear_model
 from brake_env.env.fleet.shop import HOT, MILD, PARK, SERVICE
@@ -248,8 +249,9 @@ class Prices:
         prices times the needs (the vehicles earn them back by working), less the
         capacities' prices times the capacities (the vehicles pay them per use)."""
         c = config
-        needs = self.hot * c.hot_need + self.work * (c.hot_need + c.mild_need)
-        return float(needs.sum() - c.bays * self.bay.sum() - c.window_slots * self.crew.sum())
+        hot, work = needs(c, window=False)  # (a window's prices are 0)
+        earned = self.hot * hot + self.work * work
+        return float(earned.sum() - c.bays * self.bay.sum() - c.window_slots * self.crew.sum())
 
     def project(self, config: FleetConfig) -> Prices:
         """The nearest prices in the boxes of the module docstring (Euclidean, per shift)."""

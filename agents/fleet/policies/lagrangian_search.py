@@ -24,6 +24,7 @@ from numpy.typing import NDArray
 
 from agents.fleet.policies.checks import bound_inputs, real, whole
 from agents.fleet.policies.lagrangian import BoundModel, Prices, Program, bound, solve
+from brake_env.env.fleet.model import needs
 from brake_env.env.fleet.shop import HOT, MILD, PARK, SERVICE
 
 F64 = NDArray[np.float64]
@@ -96,9 +97,10 @@ def supergradient(model: BoundModel, occ: Occupation) -> Prices:
     supergradient of the bound in the prices."""
     c = model.config
     w = np.array([c.is_window(t) for t in range(c.episode_shifts)])
+    hot, work = needs(c, window=False)  # (a window's slacks are set to 0 below)
     g = Prices(
-        c.hot_need - occ.hot,
-        c.hot_need + c.mild_need - occ.hot - occ.mild,
+        hot - occ.hot,
+        work - occ.hot - occ.mild,
         occ.visits + occ.down * c.bays / c.n_vehicles - c.bays,
         occ.window_fits - c.window_slots,
     )

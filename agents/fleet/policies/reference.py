@@ -50,6 +50,7 @@ from scipy.stats import norm
 from agents.fleet.policies.base import FleetPolicy
 from agents.fleet.policies.rules import reorder
 from brake_env.env.fleet.config import FleetConfig
+from brake_env.env.fleet.model import can_drive
 from brake_env.env.fleet.routes import HOT as HOT_ROUTE
 from brake_env.env.fleet.routes import MILD as MILD_ROUTE
 from brake_env.env.fleet.routes import route_mean, route_wear_model
@@ -194,8 +195,11 @@ def joint_choices(model: ReferenceModel, window: bool) -> list[tuple[int, ...]]:
     services), else hot, mild, park or service."""
     if not window:
         return list(itertools.product(CHOICES, repeat=model.config.n_vehicles))
-    joints = itertools.product((PARK, SERVICE), repeat=model.config.n_vehicles)
-    return [j for j in joints if j.count(SERVICE) <= model.config.window_slots]
+    c = model.config
+    joints = itertools.product((PARK, SERVICE), repeat=c.n_vehicles)
+    no_one_down = np.zeros(c.n_vehicles, dtype=bool)  # spares always in stock (the model's)
+    return [j for j in joints if fits_capacity(c, True, np.array(j) == SERVICE, no_one_down,
+                                               c.n_vehicles, 0)]  # fmt: skip
 
 
 def shift_cost(model: ReferenceModel, joint: tuple[int, ...], window: bool) -> float:
@@ -304,7 +308,7 @@ class ReferencePolicy(FleetPolicy):
         window = c.is_window(shift)
         v_next = self.solution.values[min(shift + 1, c.episode_shifts)].astype(np.float64)
         v_next = v_next.reshape((m.D * (m.H + 1),) * c.n_vehicles)
-        options = [(PARK, SERVICE) if (window or d > 0) else CHOICES for d in down]
+        options = [CHOICES if d else (PARK, SERVICE) for d in can_drive(down, window)]
         best, best_q = tuple(PARK for _ in down), np.inf
         for joint in itertools.product(*options):
             fits = np.array([j == SERVICE for j in joint])

@@ -14,6 +14,7 @@ from brake_env.env.fleet import spaces as fs
 from brake_env.env.fleet.config import COST_TERMS, ENV_ID, FleetConfig
 from brake_env.env.fleet.episode_cost import EpisodeCostInfo
 from brake_env.env.fleet.fleet_file import read_fleet
+from brake_env.env.fleet.model import breaks
 from brake_env.env.fleet.pads import FleetPads, ShiftEvents
 from brake_env.env.fleet.render import FleetFrame, ansi
 from brake_env.env.fleet.routes import UNIFORM, route_indices, route_wear_model
@@ -215,11 +216,7 @@ class BrakeWearFleetEnv(gym.Env[NDArray[np.float32], NDArray[np.int64]]):
         fitted = shop.fail(ev.failed)
         for v in np.flatnonzero(fitted):
             self._install(int(v))
-        broke = (
-            (plan.route >= 0)
-            & ~ev.failed
-            & (self._break_rng.random(c.n_vehicles) < c.breakdown_rate)
-        )
+        broke = breaks(c, plan.route >= 0, ev.failed, self._break_rng.random(c.n_vehicles))
         shop.break_down(broke)
         shop.order(quantity)
         shop.end_shift(ev.failed | broke)

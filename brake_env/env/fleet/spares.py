@@ -14,12 +14,13 @@ from typing import Any
 
 import numpy as np
 
+from brake_env.env.fleet import model
+
 
 def reorder(stock: int, transit: int, fits: int, s: int, S: int, max_order: int) -> int:
     """(s, S): when stock + in transit - fits sent now is below ``s``, order up to ``S``
-    (at most ``max_order``); else nothing."""
-    position = stock + transit - fits
-    return 0 if position >= s else int(np.clip(S - position, 0, max_order))
+    (at most ``max_order``); else nothing (:func:`.model.reorder` on one state)."""
+    return int(model.reorder(stock, transit, fits, s, S, max_order))
 
 
 @dataclass(frozen=True)
