@@ -69,9 +69,9 @@ def fill_needs(config: FleetConfig, order: I64, able: B, duty: I64) -> tuple[B, 
     """The ``able`` vehicles, in ``order`` (each row a permutation of the vehicles, most
     wanted on the ramp first), fill the hot need, then the mild need, in place in ``duty``
     (the others keep theirs); returns the vehicles sent to each."""
-    before = np.cumsum(np.take_along_axis(able, order, axis=-1), axis=-1) - 1
-    rank = np.empty_like(before)
-    np.put_along_axis(rank, order, before, axis=-1)  # each able vehicle's place among them
+    rows = np.arange(order.shape[0])[:, None]
+    rank = np.empty(order.shape, dtype=np.int64)
+    rank[rows, order] = np.cumsum(able[rows, order], axis=-1) - 1  # place among the able
     hot_need, work = config.hot_need, config.hot_need + config.mild_need
     hot = able & (rank < hot_need)
     drift = able & (rank >= hot_need) & (rank < work)
@@ -196,4 +196,5 @@ def reorder(stock: Any, transit: Any, fits: Any, s: Any, S: Any, max_order: int)
     """(s, S): when stock + in transit - fits sent now is below ``s``, order up to ``S``
     (at most ``max_order``); else nothing. Elementwise over arrays."""
     position = np.asarray(stock) + np.asarray(transit) - np.asarray(fits)
-    return np.where(position >= s, 0, np.clip(S - position, 0, max_order)).astype(np.int64)
+    up_to = np.minimum(np.maximum(S - position, 0), max_order)
+    return np.where(position >= s, 0, up_to).astype(np.int64)
