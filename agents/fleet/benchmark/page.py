@@ -82,17 +82,21 @@ def suite_section(
 
 
 def _made(shipped: dict[str, Any] | None) -> list[str]:
-    """How the baselines were made: the file's command, and each one rerun on its own."""
+    """How the baselines were made: the file's command, and those remade on their own
+    (``fleet-baselines --only``) with theirs."""
     if shipped is None:
         return ["", "No baselines shipped yet (`brakewear fleet-baselines`)."]
     secs = shipped.get("seconds")
     made = f" in {secs / 3600:.2f} h of wall time (2 cores, shared)" if secs else ""
     out = ["", f"Baselines made{made}: `{shipped['command']}`"]
-    for k, v in shipped["baselines"].items():
-        if "command" in v:
-            out.append(f"- `{k}` rerun: `{v['command']}`")
-    if shipped.get("bound", {}).get("command"):
-        out.append(f"- bound rerun: `{shipped['bound']['command']}`")
+    remade: dict[str, list[str]] = {}
+    for k, v in [*shipped["baselines"].items(), ("bound", shipped.get("bound") or {})]:
+        if v.get("command"):
+            remade.setdefault(v["command"], []).append(f"`{k}`")
+    if remade:
+        out.append("")
+    for command, names in remade.items():
+        out.append(f"- {', '.join(names)} remade since: `{command}`")
     return out
 
 
