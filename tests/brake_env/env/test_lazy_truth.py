@@ -88,8 +88,8 @@ def test_copying_and_pickling_infos_never_simulates(atlas, monkeypatch) -> None:
     env.reset(seed=4)
     with monkeypatch.context() as m:
         _never_simulate(m)
-        infos = [env.step(a)[4] for a in _actions(60)]
-        assert sum(i["replaced"] for i in infos) > 10
+        infos = [env.step(a)[4] for a in _actions(30)]  # every copy reads every pad's life
+        assert sum(i["replaced"] for i in infos) >= 8
         deep = copy.deepcopy(infos)
         shallow = [
             {**i, "truth": i["truth"].copy(), "retired": copy.copy(i["retired"])} for i in infos

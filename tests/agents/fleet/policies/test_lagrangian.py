@@ -7,6 +7,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 import itertools
+import math
 
 import numpy as np
 import pytest
@@ -56,6 +57,14 @@ def toy(n: int, T: int, **kwargs) -> BoundModel:
     return BoundModel(cfg, units=2, mild_units=1, new_prob=np.array([0, 0, 0, 0.3, 0, 0.7]))
 
 
+def joint_outcomes(per: list[list[tuple[float, tuple, float]]]) -> list[tuple[float, tuple, float]]:
+    """Each vehicle's (probability, next (h, d), cost) combined: every joint outcome's."""
+    return [
+        (math.prod(o[0] for o in combo), tuple(o[1] for o in combo), sum(o[2] for o in combo))
+        for combo in itertools.product(*per)
+    ]
+
+
 def brute_force(m: BoundModel, h0: tuple[int, ...], stock: int | None = None) -> float:
     """The exact joint optimum on the same per-vehicle model with the real coupling (the
     shortfall cost, the bays after the vehicles down, the window's slots), by recursion
@@ -67,6 +76,7 @@ def brute_force(m: BoundModel, h0: tuple[int, ...], stock: int | None = None) ->
     p, R, F = c.breakdown_rate, c.breakdown_repair_shifts, c.failure_repair_shifts
     new = [(float(w), j) for j, w in enumerate(m.new_prob) if w > 0]
 
+    @functools.cache
     def moves(t: int, h: int, d: int, a: int, window: bool) -> list[tuple[float, tuple, float]]:
         nd = max(d - 1, 0)
         if a == PARK:
@@ -82,6 +92,7 @@ def brute_force(m: BoundModel, h0: tuple[int, ...], stock: int | None = None) ->
         return [(1 - p, (h - used, 0), 0.0), (p, (h - used, R), 0.0)]
 
     orders = [0] if stock is None else list(range(c.max_order + 1))
+    shortfall = functools.cache(functools.partial(shortfall_cost, c))  # (on hot, on mild, window)
 
     @functools.cache
     def value(t: int, state: tuple, pads: int) -> float:
@@ -100,16 +111,15 @@ def brute_force(m: BoundModel, h0: tuple[int, ...], stock: int | None = None) ->
             ):
                 continue
             per = [moves(t, h, d, a, window) for a, (h, d) in zip(joint, state, strict=True)]
+            outcomes = joint_outcomes(per)  # the same whatever is ordered
             for q in orders:
                 if stock is not None and fits > pads + q:
                     continue
-                total = shortfall_cost(c, joint.count(HOT), joint.count(MILD), window)
+                total = shortfall(joint.count(HOT), joint.count(MILD), window)
                 total += c.costs.order if q else 0.0
                 left = pads + q - fits if stock is not None else 0
-                for combo in itertools.product(*per):
-                    prob = float(np.prod([o[0] for o in combo]))
-                    nxt = tuple(o[1] for o in combo)
-                    total += prob * (sum(o[2] for o in combo) + value(t + 1, nxt, left))
+                for prob, nxt, cost in outcomes:
+                    total += prob * (cost + value(t + 1, nxt, left))
                 best = min(best, total)
         return best
 
