@@ -72,7 +72,8 @@ def cmd_demo(args: argparse.Namespace) -> dict[str, Any]:
         runs = run_stages(ctx, stages, workers, 3, n)
         times.update({r.name: (r.wall, r.cpu) for r in runs})
         times["total"] = (clock.wall(), clock.cpu())
-    report = _demo_report(atlas_info, summary, times, side_by_side=workers >= 2 and len(runs) > 1)
+    beside = min(workers, len(runs)) if workers >= 2 and len(runs) > 1 else 0
+    report = _demo_report(atlas_info, summary, times, processes=beside)
     sections = [r.section for r in runs]
     write_text(report + "".join("\n" + s for s in sections), out / "report.md")
     summary["stage_seconds"] = {k: {"wall": w, "cpu": c} for k, (w, c) in times.items()}
@@ -86,12 +87,12 @@ def _lap(clock: StageClock) -> tuple[float, float]:
     return wall, cpu
 
 
-def _times_table(times: dict[str, tuple[float, float]], side_by_side: bool) -> str:
+def _times_table(times: dict[str, tuple[float, float]], processes: int) -> str:
     rows = "\n".join(f"| {k} | {w:.1f} | {c:.1f} |" for k, (w, c) in times.items())
     beside = (
-        "\n\nThe stages after the datasets ran side by side in two processes: their wall"
-        " times overlap and add up to more than the total."
-        if side_by_side
+        f"\n\nThe stages after the datasets ran side by side in {processes} processes: their"
+        " wall times overlap, so they add up to more than the total's."
+        if processes > 1
         else ""
     )
     return f"""| stage | wall s | CPU s |
@@ -106,7 +107,7 @@ def _demo_report(
     atlas: dict[str, Any],
     s: dict[str, Any],
     times: dict[str, tuple[float, float]],
-    side_by_side: bool,
+    processes: int,
 ) -> str:
     life = s["life_events"]
     rising = atlas["mean_temp_strictly_rising_everywhere"]
@@ -122,7 +123,7 @@ Atlas `{atlas["hash"][:16]}`.
 
 ## Stage times
 
-{_times_table(times, side_by_side)}
+{_times_table(times, processes)}
 
 ## Calibration
 

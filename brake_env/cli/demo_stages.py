@@ -28,10 +28,10 @@ from brake_env.cli.stage_clock import StageClock
 if TYPE_CHECKING:
     from brake_env.cli.demo import DemoContext, DemoStage
 
-# CPU seconds of each stage in the demo as measured (docs/performance.md): side by side,
-# the heaviest start first, so that none is left running alone at the end (longest
-# processing time first). A stage not named here starts last.
-STAGE_CPU_S = {"compare": 250.0, "fleet": 95.0, "evaluate": 50.0, "diagnose": 50.0}
+# CPU seconds of each stage of `brakewear demo --seed 0` side by side (measured at load
+# ~17 on 2 cores): the heaviest start first, so that none is left running alone at the end
+# (longest processing time first). A stage not named here starts last.
+STAGE_CPU_S = {"compare": 245.0, "fleet": 102.0, "diagnose": 60.0, "evaluate": 56.0}
 
 
 @dataclass(frozen=True)
