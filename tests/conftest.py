@@ -3,47 +3,84 @@
 from __future__ import annotations
 
 import functools
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
 import pytest
 
-from brake_env.model.atlas import Atlas, AtlasSpec
+from brake_env.model.atlas import Atlas, AtlasSpec, cached_atlas
+
+
+def _session_cache(request: pytest.FixtureRequest, factory: pytest.TempPathFactory) -> Path:
+    """This run's atlas cache: under xdist one folder for both workers (and the commands
+    they start), so that each atlas is built once a run, not once a worker; the cache
+    writes each file atomically (Atlas.save), so two workers may build one at once."""
+    if hasattr(request.config, "workerinput"):  # an xdist worker: basetemp is <run>/popen-gwN
+        cache = factory.getbasetemp().parent / "atlas-cache"
+        cache.mkdir(exist_ok=True)
+        return cache
+    return factory.mktemp("atlas-cache")
 
 
 @pytest.fixture(autouse=True, scope="session")
-def _isolated_cache(tmp_path_factory: pytest.TempPathFactory) -> None:
+def _isolated_cache(
+    request: pytest.FixtureRequest, tmp_path_factory: pytest.TempPathFactory
+) -> Iterator[None]:
     # Never touch the user's ~/.cache from the tests, nor leave SB3's logger folders in /tmp
     # (SB3 makes one per learn() that has no tensorboard_log).
     mp = pytest.MonkeyPatch()
-    mp.setenv("BRAKEWEAR_CACHE_DIR", str(tmp_path_factory.mktemp("atlas-cache")))
+    mp.setenv("BRAKEWEAR_CACHE_DIR", str(_session_cache(request, tmp_path_factory)))
     mp.setenv("SB3_LOGDIR", str(tmp_path_factory.mktemp("sb3-logs")))
     yield
     mp.undo()
 
 
 @pytest.fixture(scope="session")
-def atlas() -> Atlas:
-    """The default atlas (the documented calibration), ~1 s to build."""
-    return Atlas.build()
+def atlas(_isolated_cache: None) -> Atlas:
+    """The default atlas (the documented calibration), through the run's cache: the
+    commands and envs that load the default atlas find it there."""
+    return cached_atlas(AtlasSpec())
 
 
 @pytest.fixture(scope="session")
-def small_atlas() -> Atlas:
+def small_atlas(_isolated_cache: None) -> Atlas:
     """A coarse atlas of the default physics for fast simulator and dataset tests."""
-    return Atlas.build(AtlasSpec(n_speed=6, n_mass=3, n_slope=5))
+    return cached_atlas(AtlasSpec(n_speed=6, n_mass=3, n_slope=5))
 
 
-@pytest.fixture(scope="session")
-def local_ray():
-    """A local Ray with 2 CPUs for the whole session (started once: ~4 s); Runners join it.
+_RAY: dict[str, Any] = {}  # the local Ray's Runner while it is up
+
+
+@pytest.fixture
+def local_ray() -> Any:
+    """A local Ray with 2 CPUs, started once for the files that use it (~4 s); Runners
+    join it. It is shut down as soon as the last of those files is done (see
+    pytest_runtest_teardown): left up, its idle processes take CPU from every later test.
     Tests that use it are skipped where Ray is not installed."""
     ray = pytest.importorskip("ray")
     from brake_env.runner import Runner
 
-    runner = Runner(workers=2)  # starts Ray with the project's import path for the workers
-    yield ray
-    runner.__exit__()
+    if "runner" not in _RAY:  # starts Ray with the project's import path for the workers
+        _RAY["runner"] = Runner(workers=2)
+    return ray
+
+
+def _stop_ray() -> None:
+    runner = _RAY.pop("runner", None)
+    if runner is not None:
+        runner.__exit__()
+
+
+def pytest_runtest_teardown(item: pytest.Item, nextitem: pytest.Item | None) -> None:
+    """Ray down once the next test is not in a file that uses it: the collection puts those
+    files first and together (pytest_collection_modifyitems), so Ray starts once."""
+    if "runner" in _RAY and (nextitem is None or not _uses_ray(nextitem.path)):
+        _stop_ray()
+
+
+def pytest_sessionfinish() -> None:
+    _stop_ray()
 
 
 @functools.cache
