@@ -188,3 +188,92 @@ def test_the_program_value_reads_the_relaxed_program_at_the_window_phase():
     got = value(h, down, shift=7)  # 7 mod 3 = 1
     v = program.values[1]
     np.testing.assert_allclose(got, [v[1, 0] + v[4, 1], v[2, 0] + v[0, 0]])
+
+
+def _a_state(small_rollout, seed=0, shifts=5):
+    cfg, env, model = small_rollout
+    base = FleetRule(FleetLayout.of(cfg), TEACHER, "teacher")
+    obs, _ = env.reset(seed=seed)
+    for _ in range(shifts):
+        obs, *_ = env.step(base.act(FleetView.read(obs, base.layout)))
+    return cfg, base, model, obs
+
+
+def test_every_candidate_and_the_base_see_the_same_futures(small_rollout):
+    """Common random numbers: in one shift simulated, a candidate that changes vehicle 0's
+    duty leaves the other vehicles' sampled wear, new pads and costs exactly the base's."""
+    _, base, model, obs = _a_state(small_rollout)
+    policy = RolloutPolicy(base, model, horizon=1, samples=8, seed=3)
+    view = FleetView.read(obs, base.layout)
+    rng = np.random.default_rng([3, view.shift])
+    start = policy.start(obs, view, rng)
+    futures = model.draw(rng, 8, 1)
+    duty = base.act(view)[:-1]
+    joints = np.stack([duty, duty, duty])
+    joints[2, 0] = PARK if duty[0] != PARK else MILD
+    cost, state = policy.simulate(start, joints, futures)
+    h = state.h.reshape(3, 8, -1)
+    np.testing.assert_array_equal(cost[0], cost[1])  # the base twice: identical futures
+    np.testing.assert_array_equal(h[0], h[1])
+    np.testing.assert_array_equal(h[0][:, 1:], h[2][:, 1:])  # the others' wear unchanged
+    assert not np.array_equal(h[0][:, 0], h[2][:, 0])  # vehicle 0's duty did change
+
+
+def test_the_corrected_test_takes_no_candidate_equal_to_the_current_action(small_rollout):
+    """A candidate that is the current action (difference 0 in every future) is never
+    taken, under any level; among candidates with pure noise differences the Bonferroni
+    test takes few, the old one-standard-error rule most."""
+    cfg, _, model = small_rollout
+    rng = np.random.default_rng(0)
+    for alpha in (0.05, 0.5, 0.99):
+        rule = FleetRule(FleetLayout.of(cfg), TEACHER)
+        policy = RolloutPolicy(rule, model, horizon=1, samples=32, alpha=alpha)
+        cost = np.repeat(rng.normal(size=(1, 32)), 5, axis=0)
+        assert policy.better(cost, 2) is None
+        assert not policy.wins(cost[1:] - cost[0], 4).any()
+    rule = FleetRule(FleetLayout.of(cfg), TEACHER)
+    corrected = RolloutPolicy(rule, model, horizon=1, samples=32, alpha=0.05)
+    old = RolloutPolicy(rule, model, horizon=1, samples=32, confidence=1.0)
+    noise = rng.normal(size=(200, 37, 32))  # 200 states, 36 candidates against row 0
+    taken = [sum(p.better(c, 0) is not None for c in noise) for p in (corrected, old)]
+    assert taken[0] <= 200 * 0.05 * 2 and taken[1] > 100, taken
+
+
+def test_a_real_improvement_passes_the_corrected_test(small_rollout):
+    cfg, _, model = small_rollout
+    rule = FleetRule(FleetLayout.of(cfg), TEACHER)
+    policy = RolloutPolicy(rule, model, horizon=1, samples=32, alpha=0.05)
+    rng = np.random.default_rng(1)
+    cost = np.repeat(rng.normal(size=(1, 32)), 37, axis=0) + 0.1 * rng.normal(size=(37, 32))
+    cost[5] -= 1.0  # better by 10 noise sd in every future
+    assert policy.better(cost, 0) == 5
+
+
+def test_the_rollout_on_the_index_policy_is_deterministic_and_respects_masks(small_rollout):
+    from agents.fleet.policies.index import IndexPolicy, searched
+
+    cfg, env, model = small_rollout
+    index = IndexPolicy(FleetLayout.of(cfg), *searched(cfg, env.unwrapped.atlas, 3, starts=2),
+                        cover=2.0, floor=0.03)  # fmt: skip
+    obs, _ = env.reset(seed=1)
+    for _ in range(8):
+        a = RolloutPolicy(index, model, horizon=1, samples=8, seed=5).act(obs)
+        np.testing.assert_array_equal(a, RolloutPolicy(index, model, 1, 8, 5).act(obs))
+        assert respects(a, env.unwrapped.action_masks(), cfg.n_vehicles)
+        obs, *_ = env.step(a)
+    with pytest.raises(ValueError, match="horizon must be 1"):
+        RolloutPolicy(index, model, horizon=2)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [({"alpha": 0.0}, "0 < alpha < 1"), ({"alpha": 1.5}, "alpha must be"),
+     ({"samples": 1}, "samples >= 2"), ({"alpha": float("nan")}, "alpha must be")],
+)  # fmt: skip
+def test_the_acceptance_test_refuses_bad_settings(small_rollout, kwargs, match):
+    cfg, _, model = small_rollout
+    rule = FleetRule(FleetLayout.of(cfg), TEACHER)
+    with pytest.raises(ValueError, match=match):
+        RolloutPolicy(rule, model, **{"horizon": 1, "samples": 8, **kwargs})
+    with pytest.raises(ValueError, match="FleetRule or an IndexPolicy"):
+        RolloutPolicy(object(), model)  # type: ignore[arg-type]
