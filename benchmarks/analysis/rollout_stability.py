@@ -116,7 +116,7 @@ def agreement(args: argparse.Namespace) -> None:
         u = setup(args, p, args.episodes)
         states = sampled_states(u, args.every)
         print(f"{p}: {len(states)} states, episodes {u.seeds[0]}..{u.seeds[-1]} every"
-              f" {args.every} shifts, base {args.base}")  # fmt: skip
+              f" {args.every} shifts, base {args.base}", flush=True)  # fmt: skip
         for setting in args.samples.split(","):
             t0 = time.process_time()
             same, departs = 0, np.zeros(2)
@@ -131,27 +131,29 @@ def agreement(args: argparse.Namespace) -> None:
             print(f"  {setting:>5}: agree {same / len(states):.3f}  depart seed0"
                   f" {departs[0] / len(states):.3f} seed1 {departs[1] / len(states):.3f}"
                   f"  departures repeated {both / max(departs[0], 1):.3f}"
-                  f"  {cpu:.3f} CPU s a decision")  # fmt: skip
+                  f"  {cpu:.3f} CPU s a decision", flush=True)  # fmt: skip
 
 
 def paired(args: argparse.Namespace) -> dict[str, Any]:
+    """Episode by episode (a partial run is still paired): the base, then each planner
+    seed; each episode's net cost printed as it ends."""
     rows: dict[str, Any] = {}
+    planner_seeds = [int(s) for s in args.planner_seeds.split(",")]
     for p in filter(None, args.predictors.split(",")):
         u = setup(args, p, args.episodes)
         base = u.index if args.base == "index" else u.rule
-        t0 = time.process_time()
-        rows[f"{p}-{args.base}"] = [e.net for e in run_episodes(u.env, base, u.seeds)]
-        print(f"{p}-{args.base}: {(time.process_time() - t0) / len(u.seeds):.1f} CPU s an"
-              " episode", flush=True)  # fmt: skip
-        for seed in (int(s) for s in args.planner_seeds.split(",")):
-            t0 = time.process_time()
-            pol = planner(u, args.base, args.samples.split(",")[0], seed, args)
-            eps = run_episodes(u.env, pol, u.seeds, check_masks=True)
-            rows[f"{p}-{args.base}-rollout-seed{seed}"] = [e.net for e in eps]
-            print(f"{p} rollout seed {seed}: {(time.process_time() - t0) / len(u.seeds):.1f}"
-                  " CPU s an episode", flush=True)  # fmt: skip
-        seeds = u.seeds
-    return {"seeds": seeds, "rows": rows, "args": vars(args)}
+        names = [f"{p}-{args.base}"] + [f"{p}-{args.base}-rollout-seed{s}" for s in planner_seeds]
+        pols = [base] + [planner(u, args.base, args.samples.split(",")[0], s, args)
+                         for s in planner_seeds]  # fmt: skip
+        cpu = np.zeros(len(pols))
+        for seed in u.seeds:
+            for i, (name, pol) in enumerate(zip(names, pols, strict=True)):
+                t0 = time.process_time()
+                rows.setdefault(name, []).append(run_episodes(u.env, pol, [seed], True)[0].net)
+                cpu[i] += time.process_time() - t0
+                print(f"episode {seed} {name}: {rows[name][-1]:.4f} ({cpu[i]:.0f} CPU s so"
+                      " far)", flush=True)  # fmt: skip
+    return {"seeds": u.seeds, "rows": rows, "args": vars(args)}
 
 
 def table(out: dict[str, Any]) -> str:
