@@ -174,6 +174,23 @@ def table(out: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
+def from_logs(paths: list[str]) -> dict[str, Any]:
+    """The paired mode's printed episodes (``episode SEED NAME: NET``), those every policy
+    of a log finished."""
+    rows: dict[str, Any] = {}
+    for path in paths:
+        got: dict[str, dict[int, float]] = {}
+        for line in Path(path).read_text(encoding="utf-8").splitlines():
+            if line.startswith("episode "):
+                _, seed, name, net = line.split()[:4]
+                got.setdefault(name.rstrip(":"), {})[int(seed)] = float(net)
+        done = sorted(set.intersection(*(set(v) for v in got.values())))
+        if len(done) < 2:
+            raise SystemExit(f"{path}: {len(done)} episode(s) finished by every policy; need 2")
+        rows.update({k: [v[s] for s in done] for k, v in got.items()})
+    return {"seeds": done, "rows": rows}
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--mode", choices=("agreement", "paired"), default="agreement")
@@ -189,7 +206,12 @@ def main() -> None:
     ap.add_argument("--planner-seeds", default="0,1,2")
     ap.add_argument("--json", default=None)
     ap.add_argument("--merge", nargs="+", default=None, metavar="JSON")
+    ap.add_argument("--logs", nargs="+", default=None, help="paired runs' printouts: the table"
+                    " of their episodes every policy finished (a partial run)")  # fmt: skip
     args = ap.parse_args()
+    if args.logs:
+        print(table(from_logs(args.logs)))
+        return
     if args.merge:
         docs = [json.loads(Path(p).read_text(encoding="utf-8")) for p in args.merge]
         if any(d["seeds"] != docs[0]["seeds"] for d in docs):
