@@ -63,6 +63,19 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
     b.add_argument("--trials-best", type=int_at_least(1), default=45, help="the rule's Optuna")
     b.add_argument("--bound-iterations", type=int_at_least(0), default=200)
     b.add_argument("--rollout", default="", help="predictors given the rollout planner")
+    _only_args(b)
+    add_runner_args(b, workers=2)
+    b.set_defaults(func="agents.fleet.commands.benchmark:cmd_fleet_baselines")
+    lb = sub.add_parser(
+        "fleet-leaderboard", formatter_class=fmt,
+        help="rewrite the leaderboard of docs/benchmark.md from the shipped baselines",
+    )  # fmt: skip
+    lb.add_argument("--page", default="docs/benchmark.md", help="the page (between its markers)")
+    lb.set_defaults(func="agents.fleet.commands.benchmark:cmd_fleet_leaderboard")
+
+
+def _only_args(b: argparse.ArgumentParser) -> None:
+    """fleet-baselines' partial regeneration."""
     b.add_argument(
         "--only", default=None, metavar="NAMES",
         help="remake only these baselines (e.g. bound,priced or twin-rule) and merge them into"
@@ -72,14 +85,6 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
         "--into", default=None, metavar="FILE",
         help="--only's file to merge into (default: the suite's shipped baselines file)",
     )  # fmt: skip
-    add_runner_args(b, workers=2)
-    b.set_defaults(func="agents.fleet.commands.benchmark:cmd_fleet_baselines")
-    lb = sub.add_parser(
-        "fleet-leaderboard", formatter_class=fmt,
-        help="rewrite the leaderboard of docs/benchmark.md from the shipped baselines",
-    )  # fmt: skip
-    lb.add_argument("--page", default="docs/benchmark.md", help="the page (between its markers)")
-    lb.set_defaults(func="agents.fleet.commands.benchmark:cmd_fleet_leaderboard")
 
 
 def _suite_args(p: argparse.ArgumentParser, out: str) -> None:
@@ -192,13 +197,20 @@ def _bound_iterations(suite: Any, iterations: int) -> int:
 def _only(suite: Any, args: argparse.Namespace) -> dict[str, Any]:
     """``--only``: the named baselines remade (the bound and the priced policy by the bound
     unit alone, rules by a study of their predictors) and merged into ``--into``."""
-    from agents.fleet.benchmark import baselines as bl
+    from agents.fleet.benchmark.baselines import (
+        bound_baselines,
+        from_summary,
+        merge,
+        read_baselines,
+        shipped_path,
+        split_only,
+    )  # fmt: skip
     from agents.fleet.commands.cli import study_and_report
     from brake_env.cli.common import make_runner
 
-    names, preds = bl.split_only(args.only)
-    into = Path(args.into) if args.into else bl.shipped_path(suite)
-    shipped = bl.read_baselines(suite, into)  # refuses a file of another suite digest
+    names, preds = split_only(args.only)
+    into = Path(args.into) if args.into else shipped_path(suite)
+    shipped = read_baselines(suite, into)  # refuses a file of another suite digest
     if shipped is None:
         raise ValueError(f"--only: no baselines file {into} to merge into (run the suite whole)")
     bound = _bound_iterations(suite, args.bound_iterations) if names & {"bound", "priced"} else 0
@@ -211,11 +223,11 @@ def _only(suite: Any, args: argparse.Namespace) -> dict[str, Any]:
     if preds or "reference" in names:
         with make_runner(args) as runner:
             summary = study_and_report(config, atlas, out, runner, quiet=args.quiet)
-        made = bl.from_summary(suite, summary, command)
+        made = from_summary(suite, summary, command)
     else:
-        made = bl.bound_baselines(suite, config, atlas) if bound else {
+        made = bound_baselines(suite, config, atlas) if bound else {
             "suite": suite.name, "suite_digest": suite.digest, "baselines": {}}  # fmt: skip
-    merged = bl.merge(shipped, made, names, command)
+    merged = merge(shipped, made, names, command)
     write_json(made, out / "made.json")
     write_json(merged, into)
     print(f"merged {', '.join(sorted(names))} into {into} (made: {out / 'made.json'})")
