@@ -38,10 +38,12 @@ rule's dev episodes 0-4, 2026-11-28): two planner seeds decide the same joint du
 of states with 16 futures (departures from the base 5.0% and 4.2%), 95.0% with 64, and 94.2%
 with the old planner (departures 6.7% and 8.3%); half the departures are repeated by the
 other seed either way, so the agreement target holds because the planner rarely departs, not
-because its departures are stable. On the index policy (``--base index --predictors oracle
---samples 16,64``, the same states): 98.3% with 16 futures, 99.2% with 64 (departures 2.5%).
-The paired dev figures (rollout minus base over 3 seeds)
-were not finished: see the issue.
+because its departures are stable. With the twin's RUL: 93.3% with 16 futures (old 91.7%).
+On the index policy (``--base index --predictors oracle --samples 16,64``, the same
+states): 98.3% with 16 futures, 99.2% with 64 (departures 2.5%). Paired on dev episodes
+(``--mode paired --samples 16 --episodes 10``, partial: ``--logs``), mean over 3 planner
+seeds minus the tuned rule: oracle -0.085 [-0.250, -0.017] on episodes 0-5 (seeds' means sd
+0.022), twin -0.329 [-0.878, -0.052] on episodes 0-3 (sd 0.111); fewer than the 10 asked.
 
 **Beliefs, never the truth.** The futures start from what the observation shows: each pad's
 hot life is sampled around the RUL the predictor gives, normal with the spread of its
