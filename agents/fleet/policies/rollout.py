@@ -40,10 +40,11 @@ with the old planner (departures 6.7% and 8.3%); half the departures are repeate
 other seed either way, so the agreement target holds because the planner rarely departs, not
 because its departures are stable. With the twin's RUL: 93.3% with 16 futures (old 91.7%).
 On the index policy (``--base index --predictors oracle --samples 16,64``, the same
-states): 98.3% with 16 futures, 99.2% with 64 (departures 2.5%). Paired on dev episodes
-(``--mode paired --samples 16 --episodes 10``, partial: ``--logs``), mean over 3 planner
-seeds minus the tuned rule: oracle -0.085 [-0.250, -0.017] on episodes 0-5 (seeds' means sd
-0.022), twin -0.329 [-0.878, -0.052] on episodes 0-3 (sd 0.111); fewer than the 10 asked.
+states): 98.3% with 16 futures, 99.2% with 64 (departures 2.5%). Paired on dev episodes 0-9
+(``--mode paired --samples 16 --episodes 10``), the mean over 3 planner seeds minus the tuned
+rule: oracle 2.097 against 2.159, -0.062 [-0.174, -0.020] (seeds' means sd 0.021; per seed
+-0.086, -0.046, -0.055); twin 2.184 against 2.405, -0.222 [-0.556, -0.079] (sd 0.068; per
+seed -0.286, -0.151, -0.229); 123 and 186 CPU s for 10 episodes a seed.
 
 **Beliefs, never the truth.** The futures start from what the observation shows: each pad's
 hot life is sampled around the RUL the predictor gives, normal with the spread of its
