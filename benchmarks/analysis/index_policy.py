@@ -22,7 +22,6 @@ t.json``.
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import json
 import time
 from pathlib import Path
@@ -70,12 +69,11 @@ def bounds(model: BoundModel, found: tuple[Any, Any, Any], seeds: list[int], atl
 
 def run(args: argparse.Namespace) -> dict[str, Any]:
     suite = read_suite(args.suite)
-    config = dataclasses.replace(suite.study_config("dev", args.episodes_from),
-                                 eval_episodes=args.episodes)  # fmt: skip
+    try:
+        config = suite.dev_config(args.episodes_from, args.episodes)
+    except ValueError as e:
+        raise SystemExit(str(e)) from None
     seeds = config.eval_seeds()
-    if max(seeds) >= suite.test_from:
-        raise SystemExit(f"episodes {seeds[0]}..{seeds[-1]} reach the test split (from"
-                         f" {suite.test_from}): this runs on the dev split only")  # fmt: skip
     cfg = config.fleet
     atlas = cached_atlas(AtlasSpec(model=BrakeModel.preset(cfg.preset)), None)
     t0 = time.process_time()

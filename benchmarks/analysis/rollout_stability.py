@@ -63,12 +63,11 @@ class Setup:
 
 def setup(args: argparse.Namespace, predictor: str, episodes: int) -> Setup:
     suite = read_suite(args.suite)
-    config = dataclasses.replace(suite.study_config("dev", args.episodes_from),
-                                 eval_episodes=episodes)  # fmt: skip
+    try:
+        config = suite.dev_config(args.episodes_from, episodes)
+    except ValueError as e:
+        raise SystemExit(str(e)) from None
     seeds = config.eval_seeds()
-    if max(seeds) >= suite.test_from:
-        raise SystemExit(f"episodes {seeds[0]}..{seeds[-1]} reach the test split (from"
-                         f" {suite.test_from}): this runs on the dev split only")  # fmt: skip
     cfg = config.fleet
     atlas = cached_atlas(AtlasSpec(model=BrakeModel.preset(cfg.preset)), None)
     entry = (read_baselines(suite) or {"baselines": {}})["baselines"].get(f"{predictor}-rule")

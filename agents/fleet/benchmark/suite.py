@@ -16,7 +16,7 @@ import hashlib
 import json
 import os
 import tomllib
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -102,9 +102,41 @@ class Suite:
             **budget,
         )  # fmt: skip
 
+    def dev_config(self, episodes_from: int, episodes: int, **budget: Any) -> FleetStudyConfig:
+        """The study of ``episodes`` dev-side episodes from ``episodes_from`` (an analysis's).
+
+        Raises:
+            ValueError: They reach the sealed test split.
+        """
+        config = replace(self.study_config("dev", episodes_from, **budget), eval_episodes=episodes)
+        seeds = config.eval_seeds()
+        if max(seeds) >= self.test_from:
+            raise ValueError(f"episodes {seeds[0]}..{seeds[-1]} reach the test split (from"
+                             f" {self.test_from}): analyses run on the dev side")  # fmt: skip
+        return config
+
 
 def shipped_suites() -> tuple[str, ...]:
     return tuple(sorted(p.stem for p in SUITES_DIR.glob("*.toml")))
+
+
+def read_named_toml(
+    name: str | os.PathLike[str], folder: Path, shipped: tuple[str, ...], what: str
+) -> tuple[Path, dict[str, Any]]:
+    """(the path, the TOML) of a shipped file's name (``folder/NAME.toml``) or a file.
+
+    Raises:
+        ValueError: Neither (the shipped names listed), or not TOML: named with ``what``.
+    """
+    text = os.fspath(name)
+    path = folder / f"{text}.toml" if text in shipped else Path(text)
+    if not path.is_file():
+        raise ValueError(f"{what} {text!r}: no such file, and not a shipped {what}"
+                         f" ({', '.join(shipped)})")  # fmt: skip
+    try:
+        return path, tomllib.loads(path.read_text(encoding="utf-8"))
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as e:
+        raise ValueError(f"{what} file {path}: not TOML ({e})") from None
 
 
 def read_suite(suite: str | os.PathLike[str]) -> Suite:
@@ -113,15 +145,7 @@ def read_suite(suite: str | os.PathLike[str]) -> Suite:
     Raises:
         ValueError: Not a suite, not TOML, an unknown or bad key: named with the file.
     """
-    text = os.fspath(suite)
-    path = SUITES_DIR / f"{text}.toml" if text in shipped_suites() else Path(text)
-    if not path.is_file():
-        raise ValueError(f"suite {text!r}: no such file, and not a shipped suite"
-                         f" ({', '.join(shipped_suites())})")  # fmt: skip
-    try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as e:
-        raise ValueError(f"suite file {path}: not TOML ({e})") from None
+    path, data = read_named_toml(suite, SUITES_DIR, shipped_suites(), "suite")
     protocol = data.pop("protocol", {})
     known = {"name", "fleet", "description"}
     bad = sorted(set(data) - known) + sorted(set(protocol) - set(_INTS) - {"objective", "observe"})

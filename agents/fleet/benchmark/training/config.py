@@ -19,12 +19,11 @@ from __future__ import annotations
 
 import dataclasses
 import os
-import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from agents.fleet.benchmark.suite import Suite, read_suite
+from agents.fleet.benchmark.suite import Suite, read_named_toml, read_suite
 from agents.fleet.learning.marl import MarlTraining
 from agents.fleet.settings import FleetTraining
 from agents.fleet.study.build import rul_env
@@ -84,15 +83,7 @@ def read_config(path: str | os.PathLike[str], suite: str | None = None) -> Train
         ValueError: Not TOML, an unknown key (named), an unknown algorithm, a refused
             setting (imitation) or a bad value (named by the settings' own check).
     """
-    text = os.fspath(path)
-    p = CONFIGS_DIR / f"{text}.toml" if text in shipped_configs() else Path(text)
-    if not p.is_file():
-        raise ValueError(f"training config {text!r}: no such file, and not a shipped config"
-                         f" ({', '.join(shipped_configs())})")  # fmt: skip
-    try:
-        data = tomllib.loads(p.read_text(encoding="utf-8"))
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as e:
-        raise ValueError(f"training config {p}: not TOML ({e})") from None
+    p, data = read_named_toml(path, CONFIGS_DIR, shipped_configs(), "training config")
     return from_dict(data, str(p), suite)
 
 
