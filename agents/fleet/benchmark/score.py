@@ -123,7 +123,7 @@ def score(
             raise ValueError(f"--episodes must be in [2, {config.eval_episodes}], got {episodes}")
         config = replace(config, eval_episodes=episodes)
     shipped = read_baselines(suite) if baselines is None else baselines
-    env, adapted, label = _policy(suite, policy, atlas, config, shipped)
+    env, adapted, label = suite_policy(suite, policy, atlas, config, shipped)
     seeds = config.eval_seeds()
     eps: list[EpisodeCost] = []
     for seed in seeds:
@@ -144,11 +144,12 @@ def score(
     return out
 
 
-def _policy(
+def suite_policy(
     suite: Suite, policy: str | Callable[[Any], Any], atlas: Atlas, config: Any,
     shipped: dict[str, Any] | None,
 ) -> tuple[Any, Adapted | PerAgent, str]:  # fmt: skip
-    """(env, the adapted policy, its label)."""
+    """(env, the adapted policy, its label) of ``policy`` (as :func:`score` takes it) on
+    ``config``'s episodes of ``suite``: what an analysis runs a policy the benchmark way by."""
     if isinstance(policy, str) and policy.startswith(BASELINE):
         name = policy.removeprefix(BASELINE)
         known = (shipped or {}).get("baselines", {})

@@ -47,6 +47,9 @@ class Occupation:
     Attributes:
         hot, mild, visits, down, window_fits: Vehicles on each route, on an unscheduled
             visit, down in the shop (at the shift's start) and fitted at a window.
+        failures, shop_fits: Pads failed, and vehicles down in the shop fitted (a shift
+            between windows); what the bound's cost is made of (its terms, not its prices).
+        end: Vehicles at each h after the last shift (for the credit of the life left).
     """
 
     hot: F64
@@ -54,6 +57,9 @@ class Occupation:
     visits: F64
     down: F64
     window_fits: F64
+    failures: F64
+    shop_fits: F64
+    end: F64
 
 
 def occupation(model: BoundModel, program: Program, start: F64) -> Occupation:
@@ -65,7 +71,8 @@ def occupation(model: BoundModel, program: Program, start: F64) -> Occupation:
     dec = np.maximum(np.arange(D) - 1, 0)
     x = np.zeros((H + 1, D))
     x[:, 0] = start
-    out = {k: np.zeros(T) for k in ("hot", "mild", "visits", "down", "window_fits")}
+    keys = ("hot", "mild", "visits", "down", "window_fits", "failures", "shop_fits")
+    out = {k: np.zeros(T) for k in keys}
     steps = [(HOT, np.arange(H + 1) - model.units), (MILD, np.arange(H + 1) - model.mild_step)]
     for t in range(T):
         a = program.policy[t]
@@ -83,13 +90,14 @@ def occupation(model: BoundModel, program: Program, start: F64) -> Occupation:
             nxt[:, 0] += (1 - p) * moved
             nxt[:, R] += p * moved
         nxt[:, F] += failed * model.new_prob
+        out["failures"][t] = failed
         if c.is_window(t):
             out["window_fits"][t] = serviced.sum()
         else:
-            out["visits"][t] = serviced[0]
+            out["visits"][t], out["shop_fits"][t] = serviced[0], serviced[1:].sum()
             out["down"][t] = x[:, 1:].sum()
         x = nxt
-    return Occupation(**out)
+    return Occupation(**out, end=x.sum(axis=1))
 
 
 def supergradient(model: BoundModel, occ: Occupation) -> Prices:
