@@ -10,7 +10,8 @@ left). The study's bound (relaxed, orders charged:
 start (:func:`agents.fleet.evaluation.gap_terms.bound_terms`; its ``shortfall`` is the
 prices' terms). Printed: each group's mean per vehicle-shift for the
 bound and each policy, and the policy minus the bound with a 95% paired bootstrap interval
-over episodes; the groups add up to the net cost and to the bound.
+over episodes; the groups add up to the net cost and to the bound. Pad use and the needs
+are read together (:data:`PADS_AND_NEEDS`).
 
 Run: ``.venv/bin/python benchmarks/analysis/fleet_gap_terms.py --suite default --episodes 10
 --policies agents.fleet.policies.index:factory,baseline:twin-rule``
@@ -35,6 +36,12 @@ from brake_env.env.fleet.env import BrakeWearFleetEnv
 from brake_env.model.atlas import AtlasSpec, cached_atlas
 from brake_env.model.params import BrakeModel
 from brake_env.output import table
+
+PADS_AND_NEEDS = "fits+shortfall+credit"
+"""Read together: at the searched prices a vehicle is near indifferent between driving (and
+wearing its pad) and the needs' price, so the program's split between pad use (fits less
+the life left) and the needs' prices is one of many as cheap; only their sum is the
+bound's."""
 
 
 def bound_rows(config: Any, atlas: Any, iterations: int) -> np.ndarray:
@@ -70,11 +77,14 @@ def report(low: np.ndarray, rows: dict[str, np.ndarray]) -> str:
     for name in rows:
         head += [name, "minus bound (95%)"]
     body = []
-    for j, group in enumerate((*TERMS, "net")):
-        b = low.sum(axis=1) if group == "net" else low[:, j]
+    groups = {g: [TERMS.index(g)] for g in TERMS}
+    groups[PADS_AND_NEEDS] = [TERMS.index(g) for g in ("fits", "shortfall", "credit")]
+    groups["net"] = list(range(len(TERMS)))
+    for group, cols in groups.items():
+        b = low[:, cols].sum(axis=1)
         line = [group, f"{b.mean():.3f}"]
         for x in rows.values():
-            p = x.sum(axis=1) if group == "net" else x[:, j]
+            p = x[:, cols].sum(axis=1)
             i = paired_interval(p, b)
             line += [f"{p.mean():.3f}", f"{i.point:+.3f} [{i.low:+.3f}, {i.high:+.3f}]"]
         body.append(line)
