@@ -25,7 +25,7 @@ from agents.fleet.evaluation.costs import run_episodes
 from agents.fleet.evaluation.tuning import tune
 from agents.fleet.study.build import layout
 from brake_env.data.datasets import DatasetSpec, make_dataset
-from brake_env.env.fleet.env import BrakeWearFleetEnv
+from brake_env.env.fleet.family import make_env
 from brake_env.env.fleet.route_rul import ROUTE_NAMES
 from brake_env.env.fleet.wrappers import FleetRULObservation
 from brake_env.model.atlas import Atlas
@@ -67,7 +67,7 @@ def score_predictor(
         config = replace(config, eval_episodes=episodes)
     budget = trials or int(((shipped or {}).get("config") or {}).get("trials_best", DEFAULT_TRIALS))
     fitted = fit_new(spec, atlas, config.n_train_runs, config.seed)
-    env = FleetRULObservation(BrakeWearFleetEnv(config.fleet, atlas=atlas), fitted,
+    env = FleetRULObservation(make_env(config.fleet, atlas), fitted,
                               fields=("rul_mean",), routes=ROUTE_NAMES, atlas=atlas)  # fmt: skip
     tuned = tune(FAMILY, env, layout(config), config.tune_seeds(), budget,
                  sampler_seed=config.seed, objective=config.objective)  # fmt: skip

@@ -49,7 +49,7 @@ from agents.fleet.policies.rules import reorder
 from agents.fleet.policies.view import FleetLayout, FleetView
 from agents.fleet.settings import FleetTraining
 from brake_env.env.fleet.config import FleetConfig
-from brake_env.env.fleet.env import BrakeWearFleetEnv
+from brake_env.env.fleet.family import make_env
 from brake_env.env.fleet.shop import SERVICE
 from brake_env.env.fleet.wrappers import ExpectedRULObservation
 from brake_env.model.atlas import Atlas
@@ -61,7 +61,7 @@ I64 = NDArray[np.int64]
 def oracle_fleet_env(config: FleetConfig, atlas: Atlas | None = None) -> gym.Env[Any, Any]:
     """The fleet env with the closed-form oracle RUL appended (a reference's information
     on the pads in service; for the twin's RUL wrap with ``FleetRULObservation``)."""
-    return ExpectedRULObservation(BrakeWearFleetEnv(config, atlas=atlas))
+    return ExpectedRULObservation(make_env(config, atlas))
 
 
 class ReorderBy(gym.ActionWrapper[Any, NDArray[np.int64], NDArray[np.int64]]):

@@ -20,7 +20,7 @@ from numpy.typing import NDArray
 from agents.fleet.operate.belief import BeliefRULObservation
 from agents.fleet.operate.estimates import VehicleEstimates, sampled_truth
 from brake_env.env.fleet.config import COST_TERMS, FleetConfig
-from brake_env.env.fleet.env import BrakeWearFleetEnv
+from brake_env.env.fleet.family import make_env
 from brake_env.env.fleet.route_rul import duty_clocks
 from brake_env.env.fleet.state import FleetState
 from brake_env.model.atlas import Atlas
@@ -67,7 +67,7 @@ def simulate(
     """``futures`` runs of ``horizon`` shifts from ``state``; ``policy(env)`` gives the
     adapted policy (SB3's ``predict``) acting on the belief-wrapped env."""
     t0 = time.perf_counter()
-    env = BeliefRULObservation(BrakeWearFleetEnv(config, atlas=atlas), est)
+    env = BeliefRULObservation(make_env(config, atlas), est)
     act = policy(env)
     base = duty_clocks(atlas).base
     rng = np.random.default_rng(np.random.SeedSequence([seed, 0x9A7]))

@@ -72,7 +72,7 @@ from agents.fleet.policies.view import FleetLayout, FleetView
 from agents.fleet.settings.training import TUNE_SEED0
 from brake_env.env.fleet import model as fleet
 from brake_env.env.fleet.config import FleetConfig
-from brake_env.env.fleet.env import BrakeWearFleetEnv
+from brake_env.env.fleet.family import make_env
 from brake_env.env.fleet.shop import HOT, MILD, PARK, SERVICE
 from brake_env.env.fleet.spaces import read_observation
 from brake_env.model.atlas import Atlas
@@ -251,7 +251,7 @@ def searched(
     episode). Cached: the search takes ~1 CPU s an iteration at the default fleet (30 steps
     give a bound 1% below 100's: enough to rank duties)."""
     model = BoundModel.build(config, atlas, credit=credit)
-    env = BrakeWearFleetEnv(config, atlas=atlas)
+    env = make_env(config, atlas)
     states = []
     for seed in range(TUNE_SEED0, TUNE_SEED0 + whole("searched", "starts", starts, 1)):
         env.reset(seed=seed)

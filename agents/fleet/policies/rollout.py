@@ -76,6 +76,7 @@ from agents.fleet.policies.lagrangian import solve
 from agents.fleet.policies.planning import FleetState, Futures, PlanningModel, ProgramValue
 from agents.fleet.policies.rules import FleetRule, reorder
 from agents.fleet.policies.view import FleetLayout, FleetView
+from brake_env.env.fleet import model as fleet_model
 from brake_env.env.fleet.config import FleetConfig
 from brake_env.env.fleet.rules import fits_capacity
 from brake_env.env.fleet.shop import SERVICE
@@ -282,9 +283,9 @@ class RolloutPolicy(FleetPolicy):
         state = start.take(rows)
         duty = np.repeat(joints, s, axis=0)
         fits = (duty == SERVICE).sum(axis=1)
-        position = state.stock + state.transit.sum(axis=1) - fits
         lo, hi = self.reorder_points
-        order = np.where(position >= lo, 0, np.clip(hi - position, 0, c.max_order))
+        order = fleet_model.reorder(state.stock, state.transit.sum(axis=1), fits, lo, hi,
+                                    c.max_order)  # fmt: skip
         cost = m.step(state, duty, order, futures, 0, rows)
         for t in range(1, self.horizon):  # (a rule base: the index's horizon is 1)
             assert isinstance(self.base, FleetRule)

@@ -22,7 +22,7 @@ from agents.fleet.policies.view import FleetLayout
 from agents.fleet.settings import FIXED_INTERVAL, FleetStudyConfig
 from agents.fleet.study.interval import AgeRULObservation
 from brake_env.env.fleet.config import FleetConfig
-from brake_env.env.fleet.env import BrakeWearFleetEnv
+from brake_env.env.fleet.family import make_env
 from brake_env.env.fleet.route_rul import ROUTE_NAMES
 from brake_env.env.fleet.wrappers import ExpectedRULObservation, FleetRULObservation
 from brake_env.model.atlas import Atlas, AtlasSpec, cached_atlas
@@ -75,7 +75,7 @@ def rul_env(
     """The fleet env on ``atlas`` (the truth) with ``predictor``'s RUL appended (``fields``
     on each of ``routes`` per vehicle, in shifts; carried onto the routes with the fitted
     predictor's own atlas; the fixed interval's from the pad's age alone)."""
-    env = BrakeWearFleetEnv(config.fleet, atlas=atlas)
+    env = make_env(config.fleet, atlas)
     if predictor == ORACLE:
         return ExpectedRULObservation(env, fields, routes)
     if predictor == FIXED_INTERVAL:

@@ -34,7 +34,7 @@ from agents.fleet.policies.rollout import RolloutPolicy
 from agents.fleet.policies.view import FleetLayout
 from agents.fleet.settings import FleetStudyConfig
 from agents.fleet.study.build import Fitted, episodes_dict, rebuild_rule, rul_env
-from brake_env.env.fleet.env import BrakeWearFleetEnv
+from brake_env.env.fleet.family import make_env
 from brake_env.model.atlas import Atlas
 from brake_env.prognostics.registry import ORACLE
 
@@ -53,7 +53,7 @@ def study_bound(
     default suite's dev episodes (1.5402 against 1.5014;
     ``benchmarks/analysis/fleet_bound_relaxation.py --models relaxed,relaxed+orders``)."""
     cfg = config.fleet
-    env = BrakeWearFleetEnv(cfg, atlas=atlas)
+    env = make_env(cfg, atlas)
     model = BoundModel.relaxed(cfg, atlas, credit=True, orders=orders)
     states = []
     for seed in config.eval_seeds():
@@ -74,7 +74,7 @@ def bound_unit(config: FleetStudyConfig, atlas: Atlas) -> dict[str, Any]:
     cfg = config.fleet
     result, bounds = study_bound(config, atlas, config.bound_iterations)
     per = cfg.n_vehicles * cfg.episode_shifts
-    env = BrakeWearFleetEnv(cfg, atlas=atlas)
+    env = make_env(cfg, atlas)
     t1 = time.perf_counter()
     # the policy on the uncredited program at those prices: the credit's values make its
     # services worse (3.489 against 2.852 on the default fleet's episodes 0-19)

@@ -5,7 +5,9 @@ fleet=FILE)``, the PettingZoo version and every fleet command's ``--fleet``.
 A file's top level holds ``FleetConfig``'s plain fields (``n_vehicles = 16``, ``regime =
 "mixed"``), a ``[costs]`` table :class:`~brake_env.env.fleet.config.FleetCosts`'s fields and
 ``currency`` (the name of the unit every cost is in), a ``[noise]`` table the sensor
-noise's, and optionally ``name``, ``description`` and ``shifts_per_year`` (the shifts a
+noise's, and optionally ``name``, ``description``, ``family`` (the env family it is a fleet
+of, :mod:`~brake_env.env.fleet.family`; default ``brake``, whose keys are FleetConfig's)
+and ``shifts_per_year`` (the shifts a
 vehicle could work in a year, which turns a cost per vehicle-shift into one per year; not
 a ``FleetConfig`` field: it prices results and changes no episode). A key the file leaves
 out keeps the default, as with ``gym.make``'s keywords. The shipped fleets (``small``, ``default``,
@@ -27,13 +29,14 @@ from pathlib import Path
 from typing import Any
 
 from brake_env.env.fleet.config import FleetConfig
+from brake_env.env.fleet.family import BRAKE, family, family_of
 
 FLEETS_DIR = Path(__file__).with_name("fleets")
 DEFAULT_CURRENCY = "USD"
 # 2 x 12 h shifts a day, every day: FleetConfig.episode_shifts' "730: a year on a 2 x 12 h
 # roster" (its holding cost is priced over the same 730).
 DEFAULT_SHIFTS_PER_YEAR = 730
-_META = ("name", "description")
+_META = ("name", "description", "family")
 
 
 @dataclass(frozen=True)
@@ -58,12 +61,21 @@ class FleetFile:
     shifts_per_year: int = DEFAULT_SHIFTS_PER_YEAR
 
     @property
+    def family(self) -> str:
+        """The name of the env family (:mod:`~brake_env.env.fleet.family`) it is a fleet of."""
+        return family_of(self.config).name
+
+    @property
     def digest(self) -> str:
         """A digest of what the file describes (the config and the currency), not of its
         bytes: two files of the same fleet, comments and order aside, share it.
         ``shifts_per_year`` is left out: it only scales the money a study reports (from its
         per-vehicle-shift figures), so the shipped suites' digests stay as they were."""
-        payload = {"config": dataclasses.asdict(self.config), "currency": self.currency}
+        payload: dict[str, Any] = {
+            "config": dataclasses.asdict(self.config), "currency": self.currency,
+        }  # fmt: skip
+        if self.family != BRAKE:  # (the brake files' digests stay as they were)
+            payload["family"] = self.family
         text = json.dumps(payload, sort_keys=True, default=str)
         return hashlib.sha256(text.encode()).hexdigest()[:16]
 
@@ -106,7 +118,7 @@ def read_fleet(fleet: str | os.PathLike[str] | FleetFile, **overrides: Any) -> F
     if not overrides:
         return base
     try:
-        config = FleetConfig.from_kwargs(base.config, **overrides)
+        config = type(base.config).from_kwargs(base.config, **overrides)
     except (TypeError, ValueError) as e:
         raise ValueError(f"fleet {base.name!r} ({base.source}): {e}") from None
     return dataclasses.replace(base, config=config)
@@ -144,7 +156,7 @@ def _from_dict(data: dict[str, Any], path: Path) -> FleetFile:
     name = meta.get("name", path.stem)
     year = _shifts_per_year(data.pop("shifts_per_year", DEFAULT_SHIFTS_PER_YEAR), path)
     try:
-        config = FleetConfig.from_kwargs(None, **data)
+        config = family(meta.get("family", BRAKE)).config.from_kwargs(None, **data)
     except (TypeError, ValueError) as e:
         raise ValueError(f"fleet file {path}: {e}") from None
     return FleetFile(name, str(path), config, currency, meta.get("description", ""), year)
@@ -163,6 +175,8 @@ def fleet_toml(fleet: FleetFile) -> str:
     d = dataclasses.asdict(fleet.config)
     costs, noise = d.pop("costs"), d.pop("noise")
     lines = [f"name = {json.dumps(fleet.name)}"]
+    if fleet.family != BRAKE:
+        lines.append(f"family = {json.dumps(fleet.family)}")
     if fleet.description:
         lines.append(f"description = {json.dumps(fleet.description)}")
     lines += [f"{k} = {_toml_value(v)}" for k, v in d.items()]
