@@ -30,7 +30,7 @@ from agents.fleet.policies.lagrangian import BoundModel, bound, solve, start_cou
 from agents.fleet.policies.lagrangian_search import SearchResult, search
 from agents.fleet.policies.planning import PlanningModel
 from agents.fleet.policies.priced import PricedPolicy
-from agents.fleet.policies.rollout import RolloutPolicy
+from agents.fleet.policies.rollout import RolloutPolicy, program_value
 from agents.fleet.policies.view import FleetLayout
 from agents.fleet.settings import FleetStudyConfig
 from agents.fleet.study.build import Fitted, episodes_dict, rebuild_rule, rul_env
@@ -94,9 +94,14 @@ def planner_fields(predictor: str) -> tuple[str, ...]:
 
 
 def study_planner(config: FleetStudyConfig, atlas: Atlas, base: Any) -> RolloutPolicy:
-    """The rollout planner on ``base`` with the study's horizon, samples and seed."""
-    return RolloutPolicy(base, PlanningModel.build(config.fleet, atlas),
-                         config.rollout_horizon, config.rollout_samples, config.seed)  # fmt: skip
+    """The rollout planner on ``base`` with the study's horizon, samples and seed, its
+    terminal value the per-vehicle programs' (:func:`~agents.fleet.policies.rollout.program_value`,
+    as it was measured on the dev split); the linear value of pad life where the programs
+    cannot be built (a wear regime other than ``id``)."""
+    cfg = config.fleet
+    terminal = program_value(cfg, atlas) if cfg.regime == "id" else None
+    return RolloutPolicy(base, PlanningModel.build(cfg, atlas), config.rollout_horizon,
+                         config.rollout_samples, config.seed, terminal=terminal)  # fmt: skip
 
 
 def rollout_unit(
