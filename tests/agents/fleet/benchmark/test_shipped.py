@@ -4,14 +4,19 @@ its shipped figures exactly; the leaderboard is the one the shipped files write.
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import pytest
 
 from agents.fleet.benchmark.baselines import read_baselines
+from agents.fleet.benchmark.entries import read_entries
 from agents.fleet.benchmark.page import BEGIN, END, leaderboard
-from agents.fleet.benchmark.score import score
+from agents.fleet.benchmark.score import Adapted, load_factory, score
 from agents.fleet.benchmark.suite import read_suite
+from agents.fleet.evaluation.costs import run_episode
+from agents.fleet.study.build import rul_env
+from agents.fleet.study.units import study_fit
 
 RULES = {"oracle-rule", "twin-rule", "window-rule"}
 SHIPPED = {
@@ -51,3 +56,29 @@ def test_the_leaderboard_on_the_page_is_the_shipped_files() -> None:
     text = PAGE.read_text()
     between = text.split(BEGIN, 1)[1].split(END, 1)[0]
     assert between.strip() == leaderboard().strip(), "run: brakewear fleet-leaderboard"
+
+
+@pytest.fixture(scope="module")
+def twin_test_env(atlas):
+    """The default suite's scoring env on its first test episode (the twin's RUL, the
+    suite's own fit): built once for the learned entries."""
+    suite = read_suite("default")
+    config = dataclasses.replace(suite.study_config("test"), eval_episodes=2)
+    return suite, config, rul_env(config, atlas, "twin", study_fit(config, "twin", atlas, atlas))
+
+
+@pytest.mark.parametrize(("entry", "factory"), [
+    ("mappo", "agents.fleet.benchmark.training.mappo:factory"),
+    ("maskable-ppo", "agents.fleet.benchmark.training.maskable:factory"),
+])  # fmt: skip
+def test_a_shipped_learned_entry_re_scored_gives_its_figures(entry, factory, twin_test_env):
+    """The shipped model, loaded by the entry's factory as fleet-score loads it, acts within
+    the masks (checked at each shift) and gives the entry's first test episode exactly (one:
+    a MAPPO episode takes ~10 CPU s)."""
+    suite, config, env = twin_test_env
+    want = read_entries(suite)[entry]
+    assert want["policy"] == factory
+    policy = Adapted(load_factory(factory)(env), env)
+    got = [run_episode(env, policy, seed, check_masks=True) for seed in config.eval_seeds()[:1]]
+    assert [e.seed for e in got] == want["episodes"]["seed"][:1]
+    assert [e.net for e in got] == want["episodes"]["net"][:1]
