@@ -6,9 +6,8 @@ Under the program's policy from a start, the vehicles' expected counts
 (:func:`agents.fleet.policies.lagrangian_search.occupation`) priced by the env's costs give
 the bound's fits, orders, shop visits, failures' damage and downtime, and the credit of the
 pad life left; the rest is the prices' terms: each relaxed constraint's price times its
-expected slack
-(needs not met are paid at their price, capacities used beyond their size too; at the
-best prices this is near 0 where the constraint binds). The terms add up to the bound
+expected slack (needs not met are paid at their price, capacities used beyond their size
+too; at the best prices this is near 0 where the constraint binds). The terms add up to the bound
 exactly (:func:`bound_terms` checks it), every one per vehicle-shift.
 
 The policy's side (:func:`episode_terms`) groups an episode's bill the same way: pads
