@@ -172,7 +172,7 @@ def cmd_fleet_baselines(args: argparse.Namespace) -> dict[str, Any]:
     config = suite.study_config(
         "test", predictors=tuple(p for p in args.predictors.split(",") if p),
         heuristics=("best combination",), trials_best=args.trials_best,
-        bound_iterations=_bound_iterations(suite, args.bound_iterations),
+        bound_iterations=args.bound_iterations,
         rollout_predictors=tuple(p for p in args.rollout.split(",") if p),
     )  # fmt: skip
     out = Path(args.out)
@@ -184,14 +184,6 @@ def cmd_fleet_baselines(args: argparse.Namespace) -> dict[str, Any]:
     print(f"wrote {out / 'baselines.json'} ({len(made['baselines'])} baselines"
           f"{', the bound' if 'bound' in made else ''})")  # fmt: skip
     return made
-
-
-def _bound_iterations(suite: Any, iterations: int) -> int:
-    if iterations and suite.fleet_file.config.regime != "id":
-        print(f"suite {suite.name}: no bound (the Lagrangian bound models the 'id' wear regime"
-              f" only; this fleet's is {suite.fleet_file.config.regime!r})")  # fmt: skip
-        return 0
-    return iterations
 
 
 def _only(suite: Any, args: argparse.Namespace) -> dict[str, Any]:
@@ -213,7 +205,7 @@ def _only(suite: Any, args: argparse.Namespace) -> dict[str, Any]:
     shipped = read_baselines(suite, into)  # refuses a file of another suite digest
     if shipped is None:
         raise ValueError(f"--only: no baselines file {into} to merge into (run the suite whole)")
-    bound = _bound_iterations(suite, args.bound_iterations) if names & {"bound", "priced"} else 0
+    bound = args.bound_iterations if names & {"bound", "priced"} else 0
     rollout = tuple(p for p in preds if f"{p}-rollout" in names)
     config = suite.study_config("test", predictors=preds or ("oracle",),
                                 heuristics=("best combination",), trials_best=args.trials_best,

@@ -54,7 +54,11 @@ def bound_terms(
         "damage": occ.failures.sum() * c.costs.damage,
         "downtime": float(occ.failures @ out_shifts) * c.costs.downtime,
         "shortfall": priced,
-        "credit": -model.credit * float(occ.end @ np.arange(model.H + 1)),
+        "credit": -model.credit
+        * (
+            float(occ.end @ np.arange(model.H + 1))
+            + model.new_tail * (services + occ.failures.sum())
+        ),
     }
     per = c.n_vehicles * c.episode_shifts
     whole = bound(model, program, prices, start)

@@ -30,12 +30,18 @@ with credit above every pad's life.
   never wears faster than the expected wear of the env's (:mod:`.lagrangian_wear`).
 - Wear per shift at its expectation plus ``slack`` units of life: the env's pad wears a
   random amount; :func:`~.lagrangian_wear.realised_slack` sizes the slack so that a share
-  ``coverage`` of pads never runs ahead of its expected path by more (the one idealisation
+  ``coverage`` of pads never runs ahead of its expected path by more (an idealisation
   that holds with a probability, not always). ``build`` alone (no slack) is the old
   approximation at the expectation, kept for the policies that plan on it.
 - The current pad's K known once fitted: an information relaxation. New pads' ``h`` is
-  drawn from the exact distribution of their state under the config's normal K (regime
-  ``id`` only).
+  drawn from the exact distribution of their state under the config's law of K (the
+  regime's normals, each truncated at 0: :func:`~.lagrangian_wear.k_cdf`).
+- States beyond the cap H (slow pads, outside ``id``): H >= the episode's hot units, so no
+  pad there fails within it and the value is the value at H less the credit beyond, exactly;
+  a fit is credited the expected units beyond (rounded up, ``new_tail``), the start its
+  pads' own (``excess``). With new pads' K taken as at least its ``FLOOR_SHARE`` quantile
+  (the slow normal cut at 0 has a density at 0: no finite mean life), it holds on the paths
+  where no new pad's K is below (each with probability 1 - 1e-6), like the slack.
 - Spares always in stock, no order nor holding cost, no lead time (non-negative costs and
   a constraint dropped); every fit pays ``pad + labour`` (the headline cost prices pads
   when fitted). With ``orders`` a service also pays ``order / max_order`` and the bound
@@ -51,16 +57,7 @@ with credit above every pad's life.
 - The schedule throws no pad life away beyond the rounding (a fit at any shift), and the
   credit of the life left at the end is per unit of the model's ``h`` (at least the env's).
 
-**Prices** (per shift ``t``; :class:`Prices`). With ``c_h = costs.shortfall`` and
-``c_m = costs.mild_shortfall``, for ``lam, mu >= 0``, ``mu <= c_m``, ``lam + mu <= c_h``
-the shortfall cost ``f(n_h, n_m)`` is at least ``lam (N_h - n_h) + mu (N_h + N_m - n_h -
-n_m)`` for all counts: a hot vehicle earns ``lam + mu``, a mild one ``mu`` (no production
-at a window). Bays: the env allows ``visits <= max(bays - down, 0)``; the tightest linear
-inequality that every (visits, down) of the env satisfies is ``visits + (bays / n) down
-<= bays`` (the line through (bays, 0) and (0, n)), so a visit pays ``nu``, a shift down
-``nu * bays / n``. Window crew: a fit at a window pays ``omega`` (at most
-``window_slots`` fits). :func:`bound` adds the prices' constant;
-:mod:`.lagrangian_search` searches the prices.
+**Prices**: :mod:`.lagrangian_prices` (what each price charges and why it is a relaxation).
 """
 
 from __future__ import annotations
@@ -71,14 +68,16 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agents.fleet.policies.checks import bound_inputs, program_fits, real, whole
+from agents.fleet.policies.lagrangian_prices import Prices, project_needs
 from agents.fleet.policies.lagrangian_wear import (
+    k_floor,
     mild_ratios,
     mild_use,
     new_pad_prob,
+    new_pad_tail,
     realised_slack,
 )
 from brake_env.env.fleet.config import FleetConfig
-from brake_env.env.fleet.model import needs
 from brake_env.env.fleet.routes import HOT as HOT_ROUTE
 from brake_env.env.fleet.routes import route_wear_model
 from brake_env.env.fleet.shop import HOT, MILD, PARK, SERVICE
@@ -88,6 +87,7 @@ from brake_env.model.wear import WearModel
 F64 = NDArray[np.float64]
 I64 = NDArray[np.int64]
 ACTIONS = (HOT, MILD, PARK, SERVICE)
+FLOOR_SHARE = 1e-6  # new pads' K below this quantile count as it in the credit beyond H
 
 
 @dataclass(frozen=True)
@@ -113,6 +113,9 @@ class BoundModel:
             :func:`~.lagrangian_wear.mild_use`); None: ``mild_units`` everywhere.
         k_cut: Pads of K below it enter with ``boost`` times their life [-].
         boost: The life factor of pads below ``k_cut`` (>= 1) [-].
+        new_tail: A new pad's expected units beyond H (at least), credited at a fit
+            (:func:`~.lagrangian_wear.new_pad_tail`; 0 in ``id``: H holds all but P ~ 1e-9).
+        k_floor: New pads' K taken as at least this in ``new_tail`` [-].
     """
 
     config: FleetConfig
@@ -126,6 +129,8 @@ class BoundModel:
     mild_use: I64 | None = None
     k_cut: float = 0.0
     boost: float = 1.0
+    new_tail: float = 0.0
+    k_floor: float = 0.0
 
     @classmethod
     def build(
@@ -138,8 +143,9 @@ class BoundModel:
         the pad life left at the end is credited (:attr:`credit`), with ``orders`` a
         service pays its least share of an order (:attr:`order_share`), with ``layers``
         a mild shift wears by the pad's layer for K above ``k_mean - k_cut_sd * k_std``."""
-        if config.regime != "id":
-            raise ValueError(f"BoundModel: regime must be 'id', got {config.regime!r}")
+        if config.regime != "id" and layers:
+            raise ValueError(f"BoundModel: mild wear by layer models the 'id' regime only, got"
+                             f" {config.regime!r}")  # fmt: skip
         units = whole("BoundModel", "units", units, 1)
         slack_shifts = real("BoundModel", "slack_shifts", slack_shifts, 0.0)
         k_cut_sd = real("BoundModel", "k_cut_sd", k_cut_sd, 0.0)
@@ -164,8 +170,11 @@ class BoundModel:
         )
         mild = int(np.floor(units * ratios.min()))
         share = config.costs.order / config.max_order if orders else 0.0
+        # outside id, slow pads outlive the cap: their units beyond are credited at a fit
+        floor = k_floor(config, FLOOR_SHARE) if credit and config.regime != "id" else 0.0
+        tail = new_pad_tail(wear, config, unit_events, H - slack, floor) if floor > 0 else 0.0
         return cls(config, units, mild, prob, wear, slack, per_unit if credit else 0.0, share,
-                   use, k_cut, boost)  # fmt: skip
+                   use, k_cut, boost, tail, floor)  # fmt: skip
 
     @classmethod
     def relaxed(
@@ -215,73 +224,21 @@ class BoundModel:
         c = self.config.costs
         return c.labour + c.pad
 
+    def excess(self, volume_frac: F64, k: F64) -> float:
+        """The pads' units beyond the cap H, summed (:meth:`state` without its clip)."""
+        if self.wear is None:
+            return 0.0
+        v = np.clip(volume_frac, self.wear.lower_edges[-1], 1.0)
+        x = self.wear.rul(v, k) * self.units / self.config.events_per_shift
+        x = np.where(np.asarray(k) < self.k_cut, x * self.boost, x)
+        return float(np.maximum(np.ceil(x - 1e-9) + self.slack - self.H, 0.0).sum())
+
     def fail_cost(self, t: int) -> float:
         """A failure in shift ``t``: damage, the fit, and the downtime of the shifts out
         that fall within the episode."""
         c = self.config
         out = min(c.failure_repair_shifts, c.episode_shifts - 1 - t)
         return c.costs.damage + self.fit_cost + c.costs.downtime * out
-
-
-@dataclass(frozen=True)
-class Prices:
-    """Prices of the linking constraints per shift, shape (episode_shifts,) each.
-
-    Attributes:
-        hot: ``lam``: the hot need's price (0 at windows).
-        work: ``mu``: the working need's price (hot + mild; 0 at windows).
-        bay: ``nu``: a bay's price between windows (0 at windows).
-        crew: ``omega``: a window slot's price (0 between windows).
-    """
-
-    hot: F64
-    work: F64
-    bay: F64
-    crew: F64
-
-    @classmethod
-    def zeros(cls, config: FleetConfig) -> Prices:
-        z = np.zeros(config.episode_shifts)
-        return cls(z, z.copy(), z.copy(), z.copy())
-
-    def constant(self, config: FleetConfig) -> float:
-        """The prices' constant, added to the vehicles' costs in the bound: the needs'
-        prices times the needs (the vehicles earn them back by working), less the
-        capacities' prices times the capacities (the vehicles pay them per use)."""
-        c = config
-        hot, work = needs(c, window=False)  # (a window's prices are 0)
-        earned = self.hot * hot + self.work * work
-        return float(earned.sum() - c.bays * self.bay.sum() - c.window_slots * self.crew.sum())
-
-    def project(self, config: FleetConfig) -> Prices:
-        """The nearest prices in the boxes of the module docstring (Euclidean, per shift)."""
-        w = np.array([config.is_window(t) for t in range(config.episode_shifts)])
-        lam, mu = project_needs(self.hot, self.work, config.costs.shortfall,
-                                config.costs.mild_shortfall)  # fmt: skip
-        pos = np.maximum
-        return Prices(
-            np.where(w, 0.0, lam), np.where(w, 0.0, mu),
-            np.where(w, 0.0, pos(self.bay, 0.0)), np.where(w, pos(self.crew, 0.0), 0.0),
-        )  # fmt: skip
-
-
-def project_needs(lam: F64, mu: F64, c_h: float, c_m: float) -> tuple[F64, F64]:
-    """Euclidean projection of each (lam, mu) onto {lam >= 0, 0 <= mu <= c_m, lam + mu <=
-    c_h} (c_m <= c_h assumed; else c_m is taken as c_h)."""
-    c_m = min(c_m, c_h)
-    corners = np.array([[0.0, 0.0], [c_h, 0.0], [c_h - c_m, c_m], [0.0, c_m]])
-    p = np.stack([lam, mu], axis=-1)
-    inside = (p[:, 0] >= 0) & (p[:, 1] >= 0) & (p[:, 1] <= c_m) & (p.sum(axis=1) <= c_h)
-    best, best_d = p.copy(), np.full(len(p), np.inf)
-    for a, b in zip(corners, np.roll(corners, -1, axis=0), strict=True):
-        e = b - a
-        s = np.clip(((p - a) @ e) / max(float(e @ e), 1e-300), 0.0, 1.0)
-        q = a + s[:, None] * e
-        d = ((p - q) ** 2).sum(axis=1)
-        better = d < best_d
-        best[better], best_d[better] = q[better], d[better]
-    out = np.where(inside[:, None], p, best)
-    return out[:, 0], out[:, 1]
 
 
 @dataclass(frozen=True)
@@ -305,7 +262,7 @@ def q_values(model: BoundModel, prices: Prices, t: int, v_next: F64) -> F64:
     H, D, m = model.H, model.D, model.units
     window = c.is_window(t)
     dec = np.maximum(np.arange(D) - 1, 0)
-    new = model.new_prob @ v_next  # (D,): after a new pad, by shop state
+    new = model.new_prob @ v_next - model.credit * model.new_tail  # (D,): after a new pad
     q = np.empty((4, H + 1, D))
     q[[HOT, MILD]] = np.inf  # driving: only from d = 0 between windows (below)
     q[PARK] = v_next[:, dec]
@@ -348,14 +305,18 @@ def solve(model: BoundModel, prices: Prices) -> Program:
     return Program(values, policy)
 
 
-def bound(model: BoundModel, program: Program, prices: Prices, start: F64) -> float:
+def bound(
+    model: BoundModel, program: Program, prices: Prices, start: F64, excess: float = 0.0
+) -> float:
     """The lower bound: the vehicles' optimal costs from ``start`` (expected vehicles at
     each h, nobody down; counts of one episode's vehicles, or their mean over episodes)
     plus the prices' constant (:meth:`Prices.constant`), less the orders' share of the
-    initial stock (:attr:`BoundModel.order_share`)."""
+    initial stock (:attr:`BoundModel.order_share`) and the credit of the start's units
+    beyond the cap (``excess``, :meth:`BoundModel.excess`: a vehicle's value is linear in
+    its state beyond the cap, which no pad there can wear through within the episode)."""
     c = model.config
     bound_inputs("bound", model, prices, start)
-    given_back = model.order_share * c.initial_stock
+    given_back = model.order_share * c.initial_stock + model.credit * excess
     return float(start @ program.values[0][:, 0] + prices.constant(c) - given_back)
 
 

@@ -32,6 +32,8 @@ from __future__ import annotations
 
 import numpy as np
 from numpy.typing import NDArray
+from scipy.integrate import quad
+from scipy.optimize import brentq
 from scipy.stats import norm
 
 from agents.fleet.policies.checks import real, whole
@@ -65,15 +67,51 @@ def mild_use(
     return use
 
 
+def k_components(config: FleetConfig) -> list[tuple[float, float]]:
+    """(share, mean) of each normal law in a new pad's K under the config's regime (the
+    env's :meth:`~brake_env.env.config.PadRegime.draw`: ``id``, or an OOD pad, slow or
+    fast with even odds); each is truncated at 0 (a draw <= 0 is drawn again)."""
+    w = config.wear
+    ood = {"id": 0.0, "ood": 1.0, "mixed": config.ood_share}[config.regime]
+    half = ood / 2
+    parts = ((1.0 - ood, w.mean("id")), (half, w.mean("ood-slow")), (half, w.mean("ood-fast")))
+    return [(share, mean) for share, mean in parts if share > 0]
+
+
+def k_cdf(config: FleetConfig, k: F64 | float) -> F64:
+    """P(a new pad's K <= k) under the config's regime (:func:`k_components`)."""
+    out = np.zeros(np.shape(k))
+    for share, mean in k_components(config):
+        below0 = float(norm.cdf(0.0, mean, config.k_std))
+        if below0 < 1e-15:  # the id regime's ~1e-23: the plain normal, as it always was
+            out = out + share * norm.cdf(k, mean, config.k_std)
+        else:
+            out = out + share * np.maximum(norm.cdf(k, mean, config.k_std) - below0, 0.0) / (
+                1.0 - below0
+            )
+    return np.asarray(out, dtype=np.float64)
+
+
+def k_floor(config: FleetConfig, share: float) -> float:
+    """The K below which a share ``share`` of new pads lies (0 for ``share`` 0)."""
+    if share <= 0.0:
+        return 0.0
+    hi = config.k_mean
+    while float(k_cdf(config, hi)) < share:
+        hi *= 2.0
+    return float(brentq(lambda k: float(k_cdf(config, k)) - share, 0.0, hi, xtol=1e-30))
+
+
 def new_pad_prob(
     wear: WearModel, config: FleetConfig, unit_events: float, H: int, k_cut: float = 0.0,
     boost: float = 1.0,
 ) -> F64:  # fmt: skip
-    """P(a new pad's state is h), h = 0..H, under the config's normal K: the state is
-    ``ceil(life(K) / unit_events)`` (times ``boost`` for ``K < k_cut``), capped at H."""
+    """P(a new pad's state is h), h = 0..H, under the config's law of K (:func:`k_cdf`):
+    the state is ``ceil(life(K) / unit_events)`` (times ``boost`` for ``K < k_cut``),
+    capped at H."""
     j = np.arange(H + 1, dtype=np.float64)
     L = wear.life_work / unit_events  # life in units = L / K
-    F = lambda k: norm.cdf(k, config.k_mean, config.k_std)  # noqa: E731
+    F = lambda k: k_cdf(config, k)  # noqa: E731
     prob = np.zeros(H + 1)
     with np.errstate(divide="ignore"):
         for lo, hi, scale in ((k_cut, np.inf, 1.0), (0.0, k_cut, boost)):
@@ -83,8 +121,38 @@ def new_pad_prob(
             top = np.minimum(scale * L / np.maximum(j - 1, 0), hi)
             bottom = np.maximum(scale * L / j, lo)
             prob[1:] += np.maximum(F(top[1:]) - F(bottom[1:]), 0.0)
-            prob[H] += max(F(min(scale * L / H, hi)) - F(lo), 0.0)  # beyond the cap
-    return prob / prob.sum()  # (drops P(K <= 0) ~ 1e-23: no pad has it)
+            prob[H] += max(float(F(min(scale * L / H, hi))) - float(F(lo)), 0.0)  # beyond the cap
+    return prob / prob.sum()  # (drops P(K <= 0) ~ 1e-23 in the id regime: no pad has it)
+
+
+def new_pad_tail(
+    wear: WearModel, config: FleetConfig, unit_events: float, cap: int, floor: float
+) -> float:
+    """At least the expected units of a new pad's state beyond ``cap`` (its state
+    ``ceil(L / K)`` in units, K taken as ``floor`` where it is less):
+    ``E[(L / K - cap)+] + P(L / K > cap)``, the ceiling's unit or less added to each pad
+    beyond the cap. The per-vehicle program, capped at ``cap``, credits it at each fit
+    (:class:`~.lagrangian.BoundModel`'s ``new_tail``)."""
+    if floor <= 0:
+        raise ValueError(f"new_pad_tail: floor must be > 0 (without one a slow pad's expected"
+                         f" life may have no finite mean), got {floor}")  # fmt: skip
+    L = wear.life_work / unit_events
+    top = L / cap  # K below it: a state beyond the cap
+    if floor >= top:
+        return 0.0
+    total = 0.0
+    for share, mean in k_components(config):
+        below0 = float(norm.cdf(0.0, mean, config.k_std))
+
+        # over u = log K the integrand (L / K - cap) pdf(K) dK is (L - cap K) pdf(K) du: smooth
+        def body(u: float, m: float = mean, b: float = below0) -> float:
+            k = float(np.exp(u))
+            return (L - cap * k) * float(norm.pdf(k, m, config.k_std)) / (1.0 - b)
+
+        part, _ = quad(body, np.log(floor), np.log(top), limit=200, epsabs=0.0, epsrel=1e-10)
+        total += share * part
+    at_floor = float(k_cdf(config, floor)) * (L / floor - cap)
+    return total + at_floor + float(k_cdf(config, top))  # at_floor: those taken as K = floor
 
 
 def pads_ahead(atlas: Atlas, config: FleetConfig, pads: int = 256, seed: int = 0) -> F64:
@@ -95,12 +163,19 @@ def pads_ahead(atlas: Atlas, config: FleetConfig, pads: int = 256, seed: int = 0
     sim = FleetPads(atlas, pads, config.noise, max(4 * eps, 4096))
     rng = np.random.default_rng(seed)
     k = config.wear.draw(rng, "id", pads)
+    labels = ["id"] * pads
+    if config.regime != "id":  # the regime's law (the id draw above kept as it was)
+        for v in range(pads):
+            k[v], labels[v] = config.pad_regime.draw(rng)
     for v in range(pads):
-        sim.install(v, float(k[v]), "id", int(rng.integers(2**63)))
+        sim.install(v, float(k[v]), labels[v], int(rng.integers(2**63)))
     life = wear.life(k)  # expected events to failure
     ahead = np.full(pads, -np.inf)
     hot = np.full(pads, ROUTE_INDEX["hot"])
-    while not sim.done.all():
+    # a pad is in an episode at most its shifts: a slower one's later lead is never used
+    for _ in range(config.episode_shifts):
+        if sim.done.all():
+            break
         sim.advance(np.where(sim.done, 0, eps), hot, measure=False)
         vol = np.clip(sim.vol, wear.lower_edges[-1], 1.0)
         left = np.where(sim.done, 0.0, wear.rul(vol, k))  # expected RUL from the real volume
@@ -119,4 +194,7 @@ def realised_slack(
     return float(np.quantile(pads_ahead(atlas, config, pads, seed), coverage))
 
 
-__all__ = ["mild_ratios", "mild_use", "new_pad_prob", "pads_ahead", "realised_slack"]
+__all__ = [
+    "k_cdf", "k_components", "k_floor", "mild_ratios", "mild_use", "new_pad_prob",
+    "new_pad_tail", "pads_ahead", "realised_slack",
+]  # fmt: skip

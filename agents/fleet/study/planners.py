@@ -55,15 +55,16 @@ def study_bound(
     cfg = config.fleet
     env = make_env(cfg, atlas)
     model = BoundModel.relaxed(cfg, atlas, credit=True, orders=orders)
-    states = []
+    states, excess = [], []
     for seed in config.eval_seeds():
         env.reset(seed=seed)
         truth = env.truth()
         states.append(model.state(truth["volume_frac"], truth["wear_coeff"]))
+        excess.append(model.excess(truth["volume_frac"], truth["wear_coeff"]))
     result = search(model, start_counts(model, np.array(states)), iterations)
     per = cfg.n_vehicles * cfg.episode_shifts
-    bounds = [bound(model, result.program, result.prices, start_counts(model, s)) / per
-              for s in states]  # fmt: skip
+    bounds = [bound(model, result.program, result.prices, start_counts(model, s), x) / per
+              for s, x in zip(states, excess, strict=True)]  # fmt: skip
     return result, bounds
 
 
