@@ -22,6 +22,8 @@ import json
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from agents.fleet.benchmark.suite import Suite
 from agents.fleet.settings import FleetStudyConfig
 from agents.fleet.study.build import episodes_of, rebuild_rule, rul_env
@@ -121,22 +123,63 @@ def rebuild(
 
 
 BOUND = "bound"
+DISTILLED = "-distilled"
 
 
 def split_only(only: str) -> tuple[set[str], tuple[str, ...]]:
-    """``--only``'s names, and the predictors whose rules (or rollouts) it names.
+    """``--only``'s names, and the predictors whose rules (or rollouts) it names (a
+    distilled policy is read from a finished ``fleet-distil``: ``--distil-from``).
 
     Raises:
         ValueError: A name that is not a baseline's (named).
     """
     names = {n.strip() for n in only.split(",") if n.strip()}
     bad = sorted(n for n in names if n not in (BOUND, "priced", "reference")
-                 and not n.endswith(("-rule", "-rollout")))  # fmt: skip
+                 and not n.endswith(("-rule", "-rollout", DISTILLED)))  # fmt: skip
     if bad or not names:
         raise ValueError(f"--only {only!r}: {bad or 'nothing'} not baseline names (bound,"
-                         " priced, reference, PREDICTOR-rule, PREDICTOR-rollout)")  # fmt: skip
+                         " priced, reference, PREDICTOR-rule, PREDICTOR-rollout,"
+                         " PREDICTOR-distilled)")  # fmt: skip
     preds = tuple(sorted({n.rsplit("-", 1)[0] for n in names if n.endswith(("-rule", "-rollout"))}))
     return names, preds
+
+
+def distilled_baseline(
+    suite: Suite, distil: dict[str, Any], kind: str = "central"
+) -> dict[str, Any]:
+    """``PREDICTOR-distilled`` from a finished ``fleet-distil`` of the suite's test-split
+    study (its ``distil.json``): each test episode's figures averaged over the training
+    seeds (the expected cost of a policy distilled from one seed), the seeds' own means
+    kept; in the baselines file's format, as ``made`` for :func:`merge`.
+
+    Raises:
+        ValueError: ``distil`` is not such a run (no per-episode figures of ``kind``, or
+            seeds that differ between training seeds).
+    """
+    try:
+        rows, p = distil[kind]["seeds"], distil["predictor"]
+        eps = [r["episodes"] for r in rows]
+        seeds = eps[0]["seed"]
+        net = np.mean([e["net"] for e in eps], axis=0)
+        cost = np.mean([e["cost"] for e in eps], axis=0)
+    except (KeyError, TypeError, IndexError, ValueError) as e:
+        raise ValueError(
+            f"--distil-from: not a fleet-distil distil.json with each seed's"
+            f" episodes ({e!r}); rerun fleet-distil with this version"
+        ) from None
+    if any(e["seed"] != seeds for e in eps) or net.shape != (len(seeds),):
+        raise ValueError("--distil-from: the training seeds ran different episodes")
+    b = {"kind": "distilled", "predictor": p, "policy": f"distilled rollout on {distil['base']}",
+         "net": float(net.mean()), "cost": float(cost.mean()),
+         "episodes": {"seed": list(seeds), "net": net.tolist(), "cost": cost.tolist()},
+         "training_seeds": [int(r["seed"]) for r in rows],
+         "seed_nets": [float(r["net"]) for r in rows], "distil": distil.get("distil"),
+         "distil_command": distil.get("command")}  # fmt: skip
+    seconds = float(distil["labels"]["seconds"]) + sum(
+        float(r["train_seconds"]) + float(r["evaluate_seconds"]) for r in rows
+    )
+    return {"suite": suite.name, "suite_digest": suite.digest,
+            "baselines": {f"{p}{DISTILLED}": b}, "seconds": seconds}  # fmt: skip
 
 
 def bound_baselines(suite: Suite, config: FleetStudyConfig, atlas: Atlas) -> dict[str, Any]:

@@ -5,6 +5,7 @@ fleet study of its test split, tuned on its dev side)."""
 from __future__ import annotations
 
 import argparse
+import json
 import shlex
 import sys
 from pathlib import Path
@@ -84,6 +85,11 @@ def _only_args(b: argparse.ArgumentParser) -> None:
     b.add_argument(
         "--into", default=None, metavar="FILE",
         help="--only's file to merge into (default: the suite's shipped baselines file)",
+    )  # fmt: skip
+    b.add_argument(
+        "--distil-from", default=None, metavar="DIR",
+        help="--only PREDICTOR-distilled: a finished fleet-distil's --out, run on a study of"
+        " this suite's test split (e.g. fleet-baselines --only PREDICTOR-rollout's --out)",
     )  # fmt: skip
 
 
@@ -190,6 +196,7 @@ def _only(suite: Any, args: argparse.Namespace) -> dict[str, Any]:
     """``--only``: the named baselines remade (the bound and the priced policy by the bound
     unit alone, rules by a study of their predictors) and merged into ``--into``."""
     from agents.fleet.benchmark.baselines import (
+        DISTILLED,
         bound_baselines,
         from_summary,
         merge,
@@ -205,6 +212,8 @@ def _only(suite: Any, args: argparse.Namespace) -> dict[str, Any]:
     shipped = read_baselines(suite, into)  # refuses a file of another suite digest
     if shipped is None:
         raise ValueError(f"--only: no baselines file {into} to merge into (run the suite whole)")
+    if distilled := {n for n in names if n.endswith(DISTILLED)}:
+        return _only_distilled(suite, args, names, distilled, shipped, into)
     bound = args.bound_iterations if names & {"bound", "priced"} else 0
     rollout = tuple(p for p in preds if f"{p}-rollout" in names)
     config = suite.study_config("test", predictors=preds or ("oracle",),
@@ -223,6 +232,31 @@ def _only(suite: Any, args: argparse.Namespace) -> dict[str, Any]:
     write_json(made, out / "made.json")
     write_json(merged, into)
     print(f"merged {', '.join(sorted(names))} into {into} (made: {out / 'made.json'})")
+    return merged
+
+
+def _only_distilled(
+    suite: Any, args: argparse.Namespace, names: set[str], distilled: set[str],
+    shipped: dict[str, Any], into: Path,
+) -> dict[str, Any]:  # fmt: skip
+    """``--only PREDICTOR-distilled --distil-from DIR``: read, not rerun, and merged."""
+    from agents.fleet.benchmark.baselines import distilled_baseline, merge
+
+    if names != distilled or len(distilled) != 1 or not args.distil_from:
+        raise ValueError(f"--only {args.only}: a distilled policy is merged alone, from the"
+                         " fleet-distil run named by --distil-from DIR")  # fmt: skip
+    path = Path(args.distil_from) / "distil.json"
+    try:
+        distil = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError) as e:
+        raise ValueError(f"--distil-from {args.distil_from}: cannot read {path} ({e})") from None
+    made = distilled_baseline(suite, distil)
+    if set(made["baselines"]) != distilled:
+        raise ValueError(f"--distil-from {args.distil_from}: it distilled"
+                         f" {list(made['baselines'])}, not {sorted(distilled)}")  # fmt: skip
+    merged = merge(shipped, made, names, "brakewear " + shlex.join(sys.argv[1:]))
+    write_json(merged, into)
+    print(f"merged {', '.join(sorted(names))} into {into}")
     return merged
 
 

@@ -7,6 +7,8 @@ from __future__ import annotations
 
 import argparse
 import json
+import shlex
+import sys
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
@@ -153,6 +155,7 @@ def cmd_fleet_distil(args: argparse.Namespace) -> dict[str, Any]:
     with make_runner(args) as runner:
         units = run_distil(job, atlas, fitted, out, runner, progress)
     summary = summarise_distil(job, study, units)
+    summary["command"] = "brakewear " + shlex.join(sys.argv[1:])
     from agents.fleet.study.plots import plot_distil
 
     figure = plot_distil(summary, out / "figures" / "distil.png")

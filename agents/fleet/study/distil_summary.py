@@ -130,6 +130,8 @@ def _seed_row(u: dict[str, Any], eps: list[Any], objective: Objective) -> dict[s
         "evaluate_seconds": float(u["seconds"]["evaluate"]),
         "seconds_per_decision": float(u["seconds_per_decision"]),
         "curve": {k: np.asarray(v).tolist() for k, v in u["curve"].items()},
+        "episodes": {"seed": [int(e.seed) for e in eps], "net": figures(eps, "net").tolist(),
+                     "cost": figures(eps, "cost").tolist()},
     }  # fmt: skip
 
 
