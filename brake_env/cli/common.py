@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import shlex
 import sys
 from collections.abc import Callable, Sequence
 from importlib.metadata import entry_points
@@ -271,3 +272,9 @@ def wear_regime(args: argparse.Namespace) -> WearRegime:
     """The WearRegime of the ``--k-mean``, ``--k-std`` and ``--ood-shift-sigma`` options."""
     k_std = args.k_std if args.k_std is not None else 0.1 * args.k_mean
     return WearRegime(args.k_mean, k_std, args.ood_shift_sigma)
+
+
+def command_line(args: argparse.Namespace) -> str:
+    """The command that ran, as a result records it: ``brakewear`` and the arguments
+    :func:`brake_env.cli.main.main` parsed (``sys.argv``'s when called otherwise)."""
+    return "brakewear " + shlex.join(getattr(args, "argv", sys.argv[1:]))

@@ -57,6 +57,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     warnings.formatwarning = _format_warning
     argv = list(sys.argv[1:] if argv is None else argv)
     args = build_parser().parse_args(argv)
+    args.argv = argv  # what a result records as its command (common.command_line)
     run = command(args.func)
     out = getattr(args, "out", None)
     # --out is refused before any work when another command (or a running one) holds it,

@@ -6,12 +6,10 @@ from __future__ import annotations
 
 import argparse
 import json
-import shlex
-import sys
 from pathlib import Path
 from typing import Any
 
-from brake_env.cli.common import add_runner_args, int_at_least, int_range, out_dir
+from brake_env.cli.common import add_runner_args, command_line, int_at_least, int_range, out_dir
 from brake_env.output import table, write_json
 
 _BUDGET = ("predictors", "heuristics", "trials", "trials_best", "bound_iterations",
@@ -138,7 +136,7 @@ def cmd_fleet_score(args: argparse.Namespace) -> dict[str, Any]:
             result = score(suite, args.policy, suite_atlas(suite, args), progress=bar,
                            episodes_from=args.episodes_from, episodes=args.episodes,
                            baselines=shipped)  # fmt: skip
-    result["command"] = "brakewear " + shlex.join(sys.argv[1:])
+    result["command"] = command_line(args)
     out = Path(args.out)
     write_json(result, out / "score.json")
     print(score_table(result))
@@ -185,7 +183,7 @@ def cmd_fleet_baselines(args: argparse.Namespace) -> dict[str, Any]:
     with make_runner(args) as runner:
         summary = study_and_report(config, suite_atlas(suite, args), out, runner,
                                    quiet=args.quiet)  # fmt: skip
-    made = from_summary(suite, summary, "brakewear " + shlex.join(sys.argv[1:]))
+    made = from_summary(suite, summary, command_line(args))
     write_json(made, out / "baselines.json")
     print(f"wrote {out / 'baselines.json'} ({len(made['baselines'])} baselines"
           f"{', the bound' if 'bound' in made else ''})")  # fmt: skip
@@ -219,7 +217,7 @@ def _only(suite: Any, args: argparse.Namespace) -> dict[str, Any]:
     config = suite.study_config("test", predictors=preds or ("oracle",),
                                 heuristics=("best combination",), trials_best=args.trials_best,
                                 bound_iterations=bound, rollout_predictors=rollout)  # fmt: skip
-    command = "brakewear " + shlex.join(sys.argv[1:])
+    command = command_line(args)
     out, atlas = Path(args.out), suite_atlas(suite, args)
     if preds or "reference" in names:
         with make_runner(args) as runner:
@@ -254,7 +252,7 @@ def _only_distilled(
     if set(made["baselines"]) != distilled:
         raise ValueError(f"--distil-from {args.distil_from}: it distilled"
                          f" {list(made['baselines'])}, not {sorted(distilled)}")  # fmt: skip
-    merged = merge(shipped, made, names, "brakewear " + shlex.join(sys.argv[1:]))
+    merged = merge(shipped, made, names, command_line(args))
     write_json(merged, into)
     print(f"merged {', '.join(sorted(names))} into {into}")
     return merged

@@ -7,8 +7,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import shlex
-import sys
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
@@ -27,7 +25,7 @@ from agents.fleet.study.distil_summary import (
     summarise_distil,
 )
 from agents.fleet.study.units import study_fit
-from brake_env.cli.common import load_atlas, make_runner
+from brake_env.cli.common import command_line, load_atlas, make_runner
 from brake_env.output import write_json, write_text
 from brake_env.prognostics.registry import ORACLE
 
@@ -155,7 +153,7 @@ def cmd_fleet_distil(args: argparse.Namespace) -> dict[str, Any]:
     with make_runner(args) as runner:
         units = run_distil(job, atlas, fitted, out, runner, progress)
     summary = summarise_distil(job, study, units)
-    summary["command"] = "brakewear " + shlex.join(sys.argv[1:])
+    summary["command"] = command_line(args)
     from agents.fleet.study.plots import plot_distil
 
     figure = plot_distil(summary, out / "figures" / "distil.png")

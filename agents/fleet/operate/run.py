@@ -10,8 +10,6 @@ from __future__ import annotations
 
 import argparse
 import math
-import shlex
-import sys
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
@@ -28,6 +26,7 @@ from agents.fleet.policies.planning import PlanningModel
 from agents.fleet.policies.rollout import RolloutPolicy
 from agents.fleet.policies.view import FleetLayout
 from agents.fleet.study.build import rule_of
+from brake_env.cli.common import command_line
 from brake_env.csv_safe import write_csv
 from brake_env.env.fleet.config import FleetConfig
 from brake_env.env.fleet.fleet_file import read_fleet
@@ -186,7 +185,7 @@ def _records(t: Any) -> list[dict[str, Any]]:
 def cmd_plan(args: argparse.Namespace) -> dict[str, Any]:
     """``brakewear plan``."""
     result = make_plan(args)
-    result["summary"]["command"] = "brakewear " + shlex.join(sys.argv[1:])
+    result["summary"]["command"] = command_line(args)
     write_plan(Path(args.out), result)
     if not args.quiet:
         print(result["text"])

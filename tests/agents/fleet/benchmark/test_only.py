@@ -60,3 +60,58 @@ def test_only_s_names() -> None:
     assert split_only("twin-rule, oracle-rule,window-rollout")[1] == ("oracle", "twin", "window")
     with pytest.raises(ValueError, match=r"\['best'\] not baseline names"):
         split_only("bound,best")
+
+
+def _distil(seeds: list[int], nets: list[list[float]]) -> dict:
+    """A fleet-distil distil.json of ``len(nets)`` training seeds on episodes ``seeds``."""
+    rows = [{"seed": s, "net": float(sum(n) / len(n)), "train_seconds": 2.0,
+             "evaluate_seconds": 1.0,
+             "episodes": {"seed": seeds, "net": n, "cost": [v + 1.0 for v in n]}}
+            for s, n in enumerate(nets)]  # fmt: skip
+    return {
+        "predictor": "twin",
+        "base": "best combination",
+        "distil": {"seeds": len(nets)},
+        "labels": {"seconds": 10.0},
+        "central": {"seeds": rows},
+        "command": "brakewear d",
+    }
+
+
+def test_a_distilled_policy_is_merged_from_its_fleet_distil(tmp_path, capsys) -> None:
+    from brake_env.cli.main import main
+
+    suite = read_suite("small")
+    shipped = read_baselines(suite)
+    seeds = shipped["seeds"]
+    a = [float(i) for i in range(len(seeds))]
+    b = [v + 2.0 for v in a]
+    run = tmp_path / "distil"
+    run.mkdir()
+    (run / "distil.json").write_text(json.dumps(_distil(seeds, [a, b])))
+    into = tmp_path / "small.json"
+    into.write_text(json.dumps(shipped))
+    main(["fleet-baselines", "--suite", "small", "--only", "twin-distilled", "--distil-from",
+          str(run), "--into", str(into), "--out", str(tmp_path / "out")])  # fmt: skip
+    got = json.loads(into.read_text())
+    d = got["baselines"]["twin-distilled"]
+    assert d["episodes"]["net"] == [v + 1.0 for v in a]  # each episode: the seeds' mean
+    assert d["episodes"]["cost"] == [v + 2.0 for v in a]
+    assert d["net"] == pytest.approx(sum(a) / len(a) + 1.0)
+    assert d["seed_nets"] == [sum(a) / len(a), sum(b) / len(b)] and d["kind"] == "distilled"
+    assert d["seconds"] == 16.0 and f"--distil-from {run}" in d["command"]
+    assert d["distil_command"] == "brakewear d"
+    assert {k: v for k, v in got["baselines"].items() if k != "twin-distilled"} == shipped[
+        "baselines"
+    ]
+    bad = _distil(seeds, [a, b])
+    bad["central"]["seeds"][1]["episodes"]["seed"] = list(range(len(seeds)))
+    (run / "distil.json").write_text(json.dumps(bad))
+    before = into.read_text()
+    assert main(["fleet-baselines", "--suite", "small", "--only", "twin-distilled",
+                 "--distil-from", str(run), "--into", str(into)]) == 2  # fmt: skip
+    assert "training seeds ran different episodes" in capsys.readouterr().err
+    assert main(["fleet-baselines", "--suite", "small", "--only", "twin-distilled,bound",
+                 "--into", str(into)]) == 2  # a distilled policy is read, never made  # fmt: skip
+    assert "merged alone, from the fleet-distil run" in capsys.readouterr().err
+    assert into.read_text() == before
