@@ -22,7 +22,7 @@ RULES = {"oracle-rule", "twin-rule", "window-rule"}
 SHIPPED = {
     "small": RULES | {"priced", "reference"},
     "default": RULES | {"data-rule", "physics-rule", "priced", "oracle-rollout", "twin-rollout"},
-    "default-mixed": RULES,  # no bound, so no priced policy (docs/benchmark.md)
+    "default-mixed": RULES | {"priced"},
     "large": RULES | {"priced"},
 }
 PAGE = Path(__file__).parents[4] / "docs" / "benchmark.md"
@@ -36,8 +36,7 @@ def test_each_shipped_file_is_of_its_suite_s_test_split(name) -> None:
     assert SHIPPED[name] <= set(shipped["baselines"])
     for b in shipped["baselines"].values():
         assert b["episodes"]["seed"] == shipped["seeds"]
-    if suite.fleet_file.config.regime == "id":  # the bound models the id regime only
-        assert len(shipped["bound"]["episodes"]) == len(shipped["seeds"])
+    assert len(shipped["bound"]["episodes"]) == len(shipped["seeds"])
     else:
         assert "bound" not in shipped
 
