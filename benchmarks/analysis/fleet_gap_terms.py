@@ -8,7 +8,8 @@ fits, orders and holding, shop visits, damage, downtime, shortfalls, less the pa
 left). The study's bound (relaxed, orders charged:
 :func:`agents.fleet.study.planners.study_bound`) is split the same way on each episode's
 start (:func:`agents.fleet.evaluation.gap_terms.bound_terms`; its ``shortfall`` is the
-prices' terms). Printed: each group's mean per vehicle-shift for the
+prices' terms). Printed: what the net credits a new pad for against its fit (above 1 where
+slow pads outlive a mean-K pad: ``default-mixed``), each group's mean per vehicle-shift for the
 bound and each policy, and the policy minus the bound with a 95% paired bootstrap interval
 over episodes; the groups add up to the net cost and to the bound. Pad use and the needs
 are read together (:data:`PADS_AND_NEEDS`).
@@ -31,6 +32,7 @@ from agents.fleet.benchmark.suite import read_suite
 from agents.fleet.evaluation.costs import paired_interval, run_episode
 from agents.fleet.evaluation.gap_terms import TERMS, bound_terms, episode_terms
 from agents.fleet.policies.lagrangian import BoundModel, start_counts
+from agents.fleet.policies.lagrangian_search import occupation
 from agents.fleet.study.planners import study_bound
 from brake_env.env.fleet.env import BrakeWearFleetEnv
 from brake_env.model.atlas import AtlasSpec, cached_atlas
@@ -50,14 +52,32 @@ def bound_rows(config: Any, atlas: Any, iterations: int) -> np.ndarray:
     result, _ = study_bound(config, atlas, iterations)
     model = BoundModel.relaxed(cfg, atlas, credit=True, orders=True)  # study_bound's model
     env = BrakeWearFleetEnv(cfg, atlas=atlas)
-    rows = []
+    rows, fits = [], []
     for seed in config.eval_seeds():
         env.reset(seed=seed)
         tr = env.truth()
         start = start_counts(model, model.state(tr["volume_frac"], tr["wear_coeff"]))
-        terms = bound_terms(model, result.program, result.prices, start)
+        excess = model.excess(tr["volume_frac"], tr["wear_coeff"])
+        terms = bound_terms(model, result.program, result.prices, start, excess)
         rows.append([terms[k] for k in TERMS])
+        occ = occupation(model, result.program, start)
+        fits.append(occ.window_fits + occ.visits + occ.shop_fits)
+    print(new_pad_line(model, np.mean(fits, axis=0)))
     return np.array(rows)
+
+
+def new_pad_line(model: BoundModel, fits: np.ndarray) -> str:
+    """What the net credits a new pad for, on average, against what fitting it costs; and the
+    bound's fits (the fleet's, expected) at the last two windows."""
+    credit = model.credit * (float(model.new_prob @ np.arange(model.H + 1)) + model.new_tail)
+    cfg = model.config
+    last = [t for t in range(cfg.episode_shifts) if cfg.is_window(t)][-2:]
+    at = ", ".join(f"shift {t}: {fits[t]:.2f}" for t in last)
+    return (
+        f"a new pad: credited {credit:.1f} on average, fitted for"
+        f" {model.fit_cost + model.order_share:.1f}; the bound's fits at the last windows"
+        f" ({at})"
+    )
 
 
 def policy_rows(suite: Any, spec: str, config: Any, atlas: Any) -> tuple[np.ndarray, float]:

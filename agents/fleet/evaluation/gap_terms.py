@@ -31,7 +31,7 @@ TERMS = ("fits", "orders", "shop_visit", "damage", "downtime", "shortfall", "cre
 
 
 def bound_terms(
-    model: BoundModel, program: Program, prices: Prices, start: F64
+    model: BoundModel, program: Program, prices: Prices, start: F64, excess: float = 0.0
 ) -> dict[str, float]:
     """The bound from ``start`` (:func:`agents.fleet.policies.lagrangian.bound`) by term, per
     vehicle-shift: :data:`TERMS`, ``shortfall`` being the prices' terms.
@@ -41,6 +41,7 @@ def bound_terms(
     """
     c = model.config
     occ = occupation(model, program, start)
+    left = float(occ.end @ np.arange(model.H + 1)) + excess  # units left at the end
     services = occ.window_fits.sum() + occ.visits.sum() + occ.shop_fits.sum()
     t = np.arange(c.episode_shifts)
     out_shifts = np.minimum(c.failure_repair_shifts, c.episode_shifts - 1 - t)
@@ -54,14 +55,10 @@ def bound_terms(
         "damage": occ.failures.sum() * c.costs.damage,
         "downtime": float(occ.failures @ out_shifts) * c.costs.downtime,
         "shortfall": priced,
-        "credit": -model.credit
-        * (
-            float(occ.end @ np.arange(model.H + 1))
-            + model.new_tail * (services + occ.failures.sum())
-        ),
+        "credit": -model.credit * (left + model.new_tail * (services + occ.failures.sum())),
     }
     per = c.n_vehicles * c.episode_shifts
-    whole = bound(model, program, prices, start)
+    whole = bound(model, program, prices, start, excess)
     if not np.isclose(sum(raw.values()), whole, rtol=1e-9, atol=1e-6 * per):
         raise AssertionError(f"bound_terms: terms add up to {sum(raw.values())}, bound {whole}")
     return {k: float(v) / per for k, v in raw.items()}

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 from scipy.stats import kstest
 
+from agents.fleet.evaluation.gap_terms import bound_terms
 from agents.fleet.policies.lagrangian import FLOOR_SHARE, BoundModel, Prices, bound, solve
 from agents.fleet.policies.lagrangian_wear import k_cdf, k_floor, new_pad_prob, new_pad_tail
 from brake_env.env.fleet.config import FleetConfig
@@ -64,6 +65,9 @@ def test_states_beyond_the_cap_are_credited_exactly(breakdown_rate):
     excess = (20 - cap) + (29 - cap)
     got = bound(small, solve(small, prices), prices, start_small, excess)
     assert got == pytest.approx(bound(big, solve(big, prices), prices, start_big), abs=1e-9)
+    # split by the bill's groups, the credit beyond the cap is in the credit's
+    terms = bound_terms(small, solve(small, prices), prices, start_small, excess)
+    assert sum(terms.values()) * cfg.n_vehicles * T == pytest.approx(got, abs=1e-9)
     # without the credit beyond the cap, the capped model is dearer: not a bound
     plain = dataclasses.replace(small, new_tail=0.0)
     assert bound(plain, solve(plain, prices), prices, start_small) > got + 1.0
