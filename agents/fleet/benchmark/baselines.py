@@ -19,15 +19,23 @@ price-directed policy acts on the bound's prices) by the study's bound unit alon
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from agents.fleet.benchmark.suite import Suite
+from agents.fleet.policies.view import FleetLayout
 from agents.fleet.settings import FleetStudyConfig
 from agents.fleet.study.build import episodes_of, rebuild_rule, rul_env
-from agents.fleet.study.planners import PRICED, bound_unit
+from agents.fleet.study.planners import (
+    PRICED,
+    bound_unit,
+    planner_fields,
+    priced_policy,
+    study_planner,
+)
 from agents.fleet.study.summary import REFERENCE
 from agents.fleet.study.units import study_fit
 from brake_env.model.atlas import Atlas
@@ -69,12 +77,28 @@ def from_summary(suite: Suite, summary: dict[str, Any], command: str) -> dict[st
              "episodes": {"seed": ep["seed"], "net": ep["net"], "cost": ep["cost"]}}  # fmt: skip
         if "params" in row:
             b["params"] = row["params"]
-        out["baselines"][name] = b
+        out["baselines"][name] = {**b, **rebuilt_from(summary, kind, row["predictor"])}
     if "bound" in summary:
         bound = summary["bound"]
         out["bound"] = {"net": bound["cost"], "episodes": bound["episodes"],
                         "iterations": bound["iterations"]}  # fmt: skip
     return out
+
+
+def rebuilt_from(summary: dict[str, Any], kind: str, predictor: str) -> dict[str, Any]:
+    """What :func:`rebuild` needs of a baseline besides its kind: a rollout's base rule and
+    planner, the price-directed policy's price steps (its prices are the bound's search)."""
+    cfg = summary["config"]
+    if kind == "rollout":
+        best = summary["best_heuristic"][predictor]
+        rule = next(r for r in summary["rows"]
+                    if r["predictor"] == predictor and r["policy"] == best)  # fmt: skip
+        return {"base": {"policy": best, "params": rule["params"]},
+                "planner": {"horizon": cfg["rollout_horizon"], "samples": cfg["rollout_samples"],
+                            "seed": cfg["seed"]}}  # fmt: skip
+    if kind == "priced":
+        return {"iterations": int(summary["bound"]["iterations"])}
+    return {}
 
 
 def shipped_path(suite: Suite) -> Path:
@@ -108,18 +132,40 @@ def read_baselines(suite: Suite, path: str | Path | None = None) -> dict[str, An
 def rebuild(
     suite: Suite, entry: dict[str, Any], atlas: Atlas, config: FleetStudyConfig
 ) -> tuple[Any, Any]:
-    """(the env, the policy) of a shipped rule baseline, as its study ran it: the suite's
-    fit of its predictor (none for the oracle) and the rule from its parameters.
+    """(the env, the policy) of a shipped baseline, as its study ran it on ``config``'s
+    episodes: a rule (the suite's fit of its predictor, none for the oracle, and the rule
+    from its parameters), a rollout (its base rule and planner settings) or the
+    price-directed policy (on the truth, at the prices of the bound's search from the whole
+    test split's starts: :func:`~agents.fleet.study.planners.study_prices`).
 
     Raises:
-        ValueError: Not a rule (only rules are rebuilt; the others are read).
+        ValueError: A kind that is read, not rebuilt (distilled, reference), or a baseline
+            made before its settings were recorded.
     """
-    if entry.get("kind") != "rule":
-        raise ValueError(f"baseline of kind {entry.get('kind')!r}: only rules are re-scored;"
-                         " its shipped episodes are read")  # fmt: skip
-    p, h = entry["predictor"], entry["policy"]
+    kind, p = entry.get("kind"), str(entry.get("predictor"))
+    if kind == "priced":
+        if "iterations" not in entry:
+            raise ValueError("baseline priced: made before its price steps were recorded;"
+                             " its shipped episodes are read")  # fmt: skip
+        full = suite.study_config("test", bound_iterations=int(entry["iterations"]))
+        return priced_policy(full, atlas)
+    if kind not in ("rule", "rollout"):
+        raise ValueError(f"baseline of kind {kind!r}: only rules, rollouts and the priced"
+                         " policy are re-scored; its shipped episodes are read")  # fmt: skip
     fitted = None if p == ORACLE else study_fit(config, p, atlas, atlas)
-    return rul_env(config, atlas, p, fitted), rebuild_rule(config, h, entry["params"])
+    if kind == "rule":
+        return rul_env(config, atlas, p, fitted), rebuild_rule(config, entry["policy"],
+                                                               entry["params"])  # fmt: skip
+    if "base" not in entry:
+        raise ValueError(f"baseline {p}-rollout: made before its base rule and planner were"
+                         " recorded; its shipped episodes are read")  # fmt: skip
+    fields = planner_fields(p)
+    base, planner = entry["base"], entry["planner"]
+    rule = rebuild_rule(config, base["policy"], base["params"],
+                        FleetLayout.of(config.fleet, fields=fields))  # fmt: skip
+    run = replace(config, rollout_horizon=int(planner["horizon"]),
+                  rollout_samples=int(planner["samples"]), seed=int(planner["seed"]))  # fmt: skip
+    return rul_env(config, atlas, p, fitted, fields), study_planner(run, atlas, rule)
 
 
 BOUND = "bound"
@@ -190,7 +236,8 @@ def bound_baselines(suite: Suite, config: FleetStudyConfig, atlas: Atlas) -> dic
     net, cost = [e.net for e in eps], [e.per_vehicle_shift for e in eps]
     priced = {"kind": "priced", "predictor": ORACLE, "policy": PRICED,
               "net": sum(net) / len(net), "cost": sum(cost) / len(cost),
-              "episodes": {"seed": [e.seed for e in eps], "net": net, "cost": cost}}  # fmt: skip
+              "episodes": {"seed": [e.seed for e in eps], "net": net, "cost": cost},
+              "iterations": int(u["iterations"])}  # fmt: skip
     bound = [float(b) for b in u["bound"]]
     return {"suite": suite.name, "suite_digest": suite.digest, "baselines": {"priced": priced},
             "bound": {"net": sum(bound) / len(bound), "episodes": bound,

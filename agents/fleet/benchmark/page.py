@@ -65,10 +65,10 @@ def suite_section(
         kind, ratio = rows[k]["kind"], _ratio(x, bound)
         lines.append(f"| `{k}` | {kind} | {_mean_iv(x)} | {minus} | {ratio} |")
     if bound is not None:
-        b = np.asarray(bound["episodes"])
-        one = "1" if b.mean() > 0 else ""
+        low = np.asarray(bound["episodes"])
+        one = "1" if low.mean() > 0 else ""
         lines.append(f"| bound | Lagrangian ({bound['iterations']} price vectors) |"
-                     f" {_mean_iv(b)} | | {one} |")  # fmt: skip
+                     f" {_mean_iv(low)} | | {one} |")  # fmt: skip
     seeds = shipped["seeds"] if shipped is not None else rows[order[0]]["episodes"]["seed"]
     lines += ["", f"{len(seeds)} test episodes from seed {seeds[0]}; net cost per"
               " vehicle-shift in USD."]  # fmt: skip

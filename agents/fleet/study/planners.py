@@ -75,18 +75,29 @@ def bound_unit(config: FleetStudyConfig, atlas: Atlas) -> dict[str, Any]:
     cfg = config.fleet
     result, bounds = study_bound(config, atlas, config.bound_iterations)
     per = cfg.n_vehicles * cfg.episode_shifts
-    env = make_env(cfg, atlas)
     t1 = time.perf_counter()
-    # the policy on the uncredited program at those prices: the credit's values make its
-    # services worse (3.489 against 2.852 on the default fleet's episodes 0-19)
-    plain = BoundModel.build(cfg, atlas)
-    policy = PricedPolicy(env, plain, result.prices, solve(plain, result.prices))
+    env, policy = priced_policy(config, atlas, result)
     eps = run_episodes(env, policy, config.eval_seeds(), check_masks=True)
     return {
         "bound": np.array(bounds), "zero_prices_bound": result.zero_bound / per,
         "iterations": result.iterations, "priced": episodes_dict(eps),
         "seconds": {"bound": t1 - t0, "priced": time.perf_counter() - t1},
     }  # fmt: skip
+
+
+def priced_policy(
+    config: FleetStudyConfig, atlas: Atlas, result: SearchResult | None = None
+) -> tuple[Any, PricedPolicy]:
+    """(the truth's env, the price-directed policy) at the prices of the bound's search on
+    ``config``'s evaluation episodes (``result``, or searched here): the policy acts on the
+    uncredited program at those prices (the credit's values make its services worse: 3.489
+    against 2.852 on the default fleet's episodes 0-19)."""
+    cfg = config.fleet
+    if result is None:
+        result, _ = study_bound(config, atlas, config.bound_iterations)
+    plain = BoundModel.build(cfg, atlas)
+    env = make_env(cfg, atlas)
+    return env, PricedPolicy(env, plain, result.prices, solve(plain, result.prices))
 
 
 def planner_fields(predictor: str) -> tuple[str, ...]:

@@ -43,10 +43,12 @@ def tiny(tmp_path_factory) -> Path:
 
 @pytest.fixture(scope="module")
 def made(tiny, atlas, tmp_path_factory) -> dict:
-    """Baselines of the tiny suite: the oracle's tuned threshold rule on the test split."""
+    """Baselines of the tiny suite: the oracle's tuned threshold rule, the rollout on it,
+    the bound and the price-directed policy, on the test split."""
     suite = read_suite(tiny)
     config = suite.study_config("test", predictors=("oracle",), heuristics=("threshold",),
-                                trials=2)  # fmt: skip
+                                trials=2, rollout_predictors=("oracle",), rollout_horizon=5,
+                                rollout_samples=4, bound_iterations=5)  # fmt: skip
     out = tmp_path_factory.mktemp("study")
     summary = run_fleet_study(config, atlas, out, Runner(0))
     return from_summary(suite, summary, "test")
@@ -95,7 +97,7 @@ def test_the_suite_s_digest_follows_its_fleet_s_content(tiny, tmp_path) -> None:
 
 def test_a_baseline_re_scored_equals_its_shipped_episodes(tiny, atlas, made) -> None:
     suite = read_suite(tiny)
-    assert set(made["baselines"]) == {"oracle-rule"}
+    assert set(made["baselines"]) == {"oracle-rule", "oracle-rollout", "priced"}
     assert made["seeds"] == list(range(900_000, 900_020))
     got = score(suite, "baseline:oracle-rule", atlas, baselines=made)
     assert got["episodes"]["net"] == made["baselines"]["oracle-rule"]["episodes"]["net"]
@@ -103,6 +105,30 @@ def test_a_baseline_re_scored_equals_its_shipped_episodes(tiny, atlas, made) -> 
     assert minus["mean"] == minus["low"] == minus["high"] == 0.0
     with pytest.raises(ValueError, match="ships no baseline 'twin-rule'"):
         score(suite, "baseline:twin-rule", atlas, baselines=made)
+
+
+@pytest.mark.parametrize("name", ["oracle-rollout", "priced"])
+def test_a_planner_or_the_priced_policy_re_scored_equals_its_episodes(
+    tiny, atlas, made, name
+) -> None:
+    """Rebuilt from what the file records (the base rule and planner, the price steps), on
+    the last 2 test episodes alone: the same figures as in the whole split's study."""
+    suite = read_suite(tiny)
+    entry = made["baselines"][name]
+    got = score(suite, f"baseline:{name}", atlas, baselines=made, episodes=2,
+                episodes_from=900_018)  # fmt: skip
+    assert got["episodes"]["net"] == entry["episodes"]["net"][-2:]
+    assert got["episodes"]["cost"] == entry["episodes"]["cost"][-2:]
+    if name == "oracle-rollout":
+        assert entry["base"]["policy"] == "threshold"
+        assert entry["planner"] == {"horizon": 5, "samples": 4, "seed": 0}
+        moved = {**entry, "planner": {**entry["planner"], "seed": 1}}
+        other = score(suite, "baseline:x", atlas, episodes=2, episodes_from=900_018,
+                      baselines={**made, "baselines": {"x": moved}})  # fmt: skip
+        assert other["episodes"]["net"] != got["episodes"]["net"]  # the seed is used
+    with pytest.raises(ValueError, match="made before"):
+        old = {k: v for k, v in entry.items() if k not in ("base", "iterations")}
+        score(suite, "baseline:x", atlas, episodes=2, baselines={**made, "baselines": {"x": old}})
 
 
 def test_a_policy_is_scored_against_the_baselines(tiny, atlas, made, tmp_path) -> None:
@@ -134,7 +160,8 @@ def test_a_policy_is_scored_against_the_baselines(tiny, atlas, made, tmp_path) -
     assert mine["episodes"]["seed"] == got["episodes"]["seed"]
     assert all(a != b for a, b in zip(mine["episodes"]["net"], got["episodes"]["net"], strict=True))
     moved = score(suite, never, atlas, baselines=made, episodes=2, episodes_from=7)
-    assert moved["episodes"]["seed"] == [7, 8] and moved["not_paired"] == ["oracle-rule"]
+    assert moved["episodes"]["seed"] == [7, 8]
+    assert moved["not_paired"] == ["oracle-rule", "oracle-rollout", "priced"]
     path = tmp_path / "b.json"
     path.write_text(json.dumps(made))
     assert read_baselines(suite, path)["baselines"].keys() == made["baselines"].keys()
