@@ -96,8 +96,8 @@ def rebuilt_from(summary: dict[str, Any], kind: str, predictor: str) -> dict[str
         return {"base": {"policy": best, "params": rule["params"]},
                 "planner": {"horizon": cfg["rollout_horizon"], "samples": cfg["rollout_samples"],
                             "seed": cfg["seed"]}}  # fmt: skip
-    if kind == "priced":
-        return {"iterations": int(summary["bound"]["iterations"])}
+    if kind == "priced":  # the search's steps (its history also holds the zero prices)
+        return {"steps": int(cfg["bound_iterations"])}
     return {}
 
 
@@ -144,10 +144,10 @@ def rebuild(
     """
     kind, p = entry.get("kind"), str(entry.get("predictor"))
     if kind == "priced":
-        if "iterations" not in entry:
+        if "steps" not in entry:
             raise ValueError("baseline priced: made before its price steps were recorded;"
                              " its shipped episodes are read")  # fmt: skip
-        full = suite.study_config("test", bound_iterations=int(entry["iterations"]))
+        full = suite.study_config("test", bound_iterations=int(entry["steps"]))
         return priced_policy(full, atlas)
     if kind not in ("rule", "rollout"):
         raise ValueError(f"baseline of kind {kind!r}: only rules, rollouts and the priced"
@@ -237,7 +237,7 @@ def bound_baselines(suite: Suite, config: FleetStudyConfig, atlas: Atlas) -> dic
     priced = {"kind": "priced", "predictor": ORACLE, "policy": PRICED,
               "net": sum(net) / len(net), "cost": sum(cost) / len(cost),
               "episodes": {"seed": [e.seed for e in eps], "net": net, "cost": cost},
-              "iterations": int(u["iterations"])}  # fmt: skip
+              "steps": config.bound_iterations}  # fmt: skip
     bound = [float(b) for b in u["bound"]]
     return {"suite": suite.name, "suite_digest": suite.digest, "baselines": {"priced": priced},
             "bound": {"net": sum(bound) / len(bound), "episodes": bound,

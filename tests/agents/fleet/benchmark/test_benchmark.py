@@ -119,6 +119,8 @@ def test_a_planner_or_the_priced_policy_re_scored_equals_its_episodes(
                 episodes_from=900_018)  # fmt: skip
     assert got["episodes"]["net"] == entry["episodes"]["net"][-2:]
     assert got["episodes"]["cost"] == entry["episodes"]["cost"][-2:]
+    if name == "priced":  # the search's steps, as the study was asked (its history has 6)
+        assert entry["steps"] == 5 and made["bound"]["iterations"] == 6
     if name == "oracle-rollout":
         assert entry["base"]["policy"] == "threshold"
         assert entry["planner"] == {"horizon": 5, "samples": 4, "seed": 0}
@@ -127,7 +129,7 @@ def test_a_planner_or_the_priced_policy_re_scored_equals_its_episodes(
                       baselines={**made, "baselines": {"x": moved}})  # fmt: skip
         assert other["episodes"]["net"] != got["episodes"]["net"]  # the seed is used
     with pytest.raises(ValueError, match="made before"):
-        old = {k: v for k, v in entry.items() if k not in ("base", "iterations")}
+        old = {k: v for k, v in entry.items() if k not in ("base", "steps")}
         score(suite, "baseline:x", atlas, episodes=2, baselines={**made, "baselines": {"x": old}})
 
 
