@@ -94,11 +94,12 @@ def _made(shipped: dict[str, Any] | None) -> list[str]:
     remade: dict[str, list[str]] = {}
     for k, v in [*shipped["baselines"].items(), ("bound", shipped.get("bound") or {})]:
         if v.get("command"):
-            remade.setdefault(v["command"], []).append(f"`{k}`")
+            run = f"`{v['distil_command']}`, then " if v.get("distil_command") else ""
+            remade.setdefault(run + f"`{v['command']}`", []).append(f"`{k}`")
     if remade:
         out.append("")
     for command, names in remade.items():
-        out.append(f"- {', '.join(names)} remade since: `{command}`")
+        out.append(f"- {', '.join(names)} remade since: {command}")
     return out
 
 
