@@ -39,10 +39,8 @@ GROUP = 8  # pads simulated together: enough runs per layer to fill the simulato
 
 def regime_weights(regime: PadRegime) -> dict[Label, float]:
     """Share of each wear-regime label among the regime's new pads (labels it never draws
-    left out)."""
-    s = {"id": 0.0, "ood": 1.0, "mixed": regime.ood_share}[regime.kind]
-    shares: dict[Label, float] = {"id": 1.0 - s, "ood-slow": s / 2, "ood-fast": s / 2}
-    return {k: v for k, v in shares.items() if v > 0}
+    left out): :meth:`~brake_env.env.config.PadRegime.shares`."""
+    return regime.shares()
 
 
 @dataclass(frozen=True)

@@ -90,6 +90,13 @@ class PadRegime:
         if self.kind != "id":
             self.wear.check_ood()
 
+    def shares(self) -> dict[Label, float]:
+        """Share of each label among new pads, as :meth:`draw` draws them (labels it never
+        draws left out)."""
+        s = {"id": 0.0, "ood": 1.0, "mixed": self.ood_share}[self.kind]
+        shares: dict[Label, float] = {"id": 1.0 - s, "ood-slow": s / 2, "ood-fast": s / 2}
+        return {k: v for k, v in shares.items() if v > 0}
+
     def draw(self, rng: np.random.Generator) -> tuple[float, Label]:
         """K of one new pad and its label (``id``, ``ood-slow`` or ``ood-fast``)."""
         ood = self.kind == "ood" or (self.kind == "mixed" and rng.random() < self.ood_share)

@@ -136,7 +136,7 @@ def rebuild(
     episodes: a rule (the suite's fit of its predictor, none for the oracle, and the rule
     from its parameters), a rollout (its base rule and planner settings) or the
     price-directed policy (on the truth, at the prices of the bound's search from the whole
-    test split's starts: :func:`~agents.fleet.study.planners.study_prices`).
+    test split's starts: :func:`~agents.fleet.study.planners.priced_policy`).
 
     Raises:
         ValueError: A kind that is read, not rebuilt (distilled, reference), or a baseline

@@ -71,11 +71,7 @@ def k_components(config: FleetConfig) -> list[tuple[float, float]]:
     """(share, mean) of each normal law in a new pad's K under the config's regime (the
     env's :meth:`~brake_env.env.config.PadRegime.draw`: ``id``, or an OOD pad, slow or
     fast with even odds); each is truncated at 0 (a draw <= 0 is drawn again)."""
-    w = config.wear
-    ood = {"id": 0.0, "ood": 1.0, "mixed": config.ood_share}[config.regime]
-    half = ood / 2
-    parts = ((1.0 - ood, w.mean("id")), (half, w.mean("ood-slow")), (half, w.mean("ood-fast")))
-    return [(share, mean) for share, mean in parts if share > 0]
+    return [(share, config.wear.mean(label)) for label, share in config.pad_regime.shares().items()]
 
 
 def k_cdf(config: FleetConfig, k: F64 | float) -> F64:
