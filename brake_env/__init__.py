@@ -3,9 +3,10 @@ the wear clock, the K distribution, the coupled run-to-failure simulator), ``dat
 logs and datasets), ``prognostics`` (predictor protocol and registry, metrics, evaluation),
 ``env`` (BrakeWear-v0, its vector env and the RUL observation wrapper) and ``cli``.
 
-Importing the package registers ``BrakeWear-v0``, ``BrakeWearFleet-v1`` (the benchmark's
+Importing the package registers ``BrakeWear-v0``, ``BrakeWearFleet-v2`` (the benchmark's
 fleet: a fleet file, 365 shifts, the episode's cost in the last step's ``info``; docs/
-benchmark.md), and the earlier ``BrakeWearFleet-v0`` (730 shifts, no episode cost) and
+benchmark.md), and the earlier ``BrakeWearFleet-v1`` (the same on ``id``-regime fleets; it
+refuses the others, whose net changed in v2), ``BrakeWearFleet-v0`` (730 shifts, no episode cost) and
 ``BrakeWearFleetSmall-v0`` (the 2-vehicle fleet, ``SMALL_FLEET``), which keep working. No torch or
 Stable-Baselines3 here, and no import of the downstream packages (twin, baselines, agents,
 sim2real): they plug in through entry points.
@@ -41,15 +42,17 @@ if "BrakeWearFleet-v0" not in registry:
         disable_env_checker=False,
     )
 
-# v1: the fleet of a fleet file (default: the shipped ``default``; ``fleet="small"`` or a
-# path), whose episode_shifts (365 in the shipped files) is the benchmark's episode.
-if "BrakeWearFleet-v1" not in registry:
-    register(
-        id="BrakeWearFleet-v1",
-        entry_point="brake_env.env.fleet.env:make_fleet_env_v1",
-        max_episode_steps=BENCHMARK_SHIFTS,
-        disable_env_checker=False,
-    )
+# v2: the fleet of a fleet file (default: the shipped ``default``; ``fleet="small"`` or a
+# path), whose episode_shifts (365 in the shipped files) is the benchmark's episode. v1 is v2
+# on fleets of the ``id`` regime and refuses the others (their net's credit changed in v2).
+for version in ("v1", "v2"):
+    if f"BrakeWearFleet-{version}" not in registry:
+        register(
+            id=f"BrakeWearFleet-{version}",
+            entry_point=f"brake_env.env.fleet.env:make_fleet_env_{version}",
+            max_episode_steps=BENCHMARK_SHIFTS,
+            disable_env_checker=False,
+        )
 
 if "BrakeWearFleetSmall-v0" not in registry:
     register(

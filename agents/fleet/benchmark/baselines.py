@@ -42,7 +42,10 @@ from brake_env.model.atlas import Atlas
 from brake_env.prognostics.registry import ORACLE
 
 BASELINES_DIR = Path(__file__).with_name("baselines")
-ENV_ID = "BrakeWearFleet-v1"
+ENV_ID = "BrakeWearFleet-v2"
+ID_REGIME_ENV_IDS = ("BrakeWearFleet-v1", ENV_ID)
+"""Env ids whose figures stand on an ``id``-regime fleet: v1 and v2 give the same episodes
+there (only other regimes' net credit changed in v2)."""
 
 
 def baseline_name(row: dict[str, Any], best: dict[str, str]) -> tuple[str, str] | None:
@@ -126,6 +129,12 @@ def read_baselines(suite: Suite, path: str | Path | None = None) -> dict[str, An
         raise ValueError(f"baselines {p}: made for suite digest {digest}, and suite"
                          f" {suite.name!r} is {suite.digest} (its protocol or fleet changed;"
                          " rerun brakewear fleet-baselines)")  # fmt: skip
+    env_id = d.get("env_id")
+    ok = ID_REGIME_ENV_IDS if suite.fleet_file.config.regime == "id" else (ENV_ID,)
+    if env_id not in ok:
+        raise ValueError(f"baselines {p}: measured on {env_id}, and suite {suite.name!r} is"
+                         f" scored on {ENV_ID} (its net differs there; rerun brakewear"
+                         " fleet-baselines)")  # fmt: skip
     return dict(d)
 
 

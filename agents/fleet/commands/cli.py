@@ -50,9 +50,9 @@ def demo_stage(ctx: DemoContext) -> tuple[dict[str, Any], str]:
         summary = study_and_report(config, load_atlas(args), out, runner, quiet=args.quiet,
                                    resume=False)  # fmt: skip
     figs = "\n".join(f"![{Path(f).stem}](fleet/{f})" for f in summary["figures"])
-    section = f"""## The fleet study (BrakeWearFleet-v1, `small` fleet)
+    section = f"""## The fleet study (BrakeWearFleet-v2, `small` fleet)
 
-The benchmark's env (`BrakeWearFleet-v1`) on its shipped `small` fleet (2 vehicles), at a
+The benchmark's env (`BrakeWearFleet-v2`) on its shipped `small` fleet (2 vehicles), at a
 small budget: the predictors {", ".join(DEMO_FLEET_PREDICTORS)} only (the comparison
 above has every one; `brakewear fleet-study` runs them all), episodes cut to {d["shifts"]}
 shifts (the benchmark's: 365), {", ".join(d["heuristics"])} tuned with {d["trials"]}

@@ -383,10 +383,34 @@ def make_fleet_env(**kwargs: Any) -> gym.Env[Any, Any]:
     return make_registered(BrakeWearFleetEnv, **kwargs)
 
 
-def make_fleet_env_v1(
+def make_fleet_env_v2(
     fleet: str | os.PathLike[str] = "default", **kwargs: Any
 ) -> gym.Env[Any, Any]:
-    """``BrakeWearFleet-v1``'s entry point: the benchmark's fleet (a fleet file or a shipped
+    """``BrakeWearFleet-v2``'s entry point: the benchmark's fleet (a fleet file or a shipped
     fleet's name; ``default``: 12 vehicles, 365 shifts) with the episode's headline and net
     cost in the last step's ``info["episode_cost"]`` (:class:`EpisodeCostInfo`)."""
     return EpisodeCostInfo(make_registered(BrakeWearFleetEnv, fleet=fleet, **kwargs))
+
+
+def make_fleet_env_v1(
+    fleet: str | os.PathLike[str] = "default", **kwargs: Any
+) -> gym.Env[Any, Any]:
+    """``BrakeWearFleet-v1``: ``v2`` on a fleet of the ``id`` wear regime, where the two
+    give the same episodes; other regimes' net credit changed in ``v2``
+    (:mod:`.episode_cost`), so ``v1`` refuses them rather than give another figure.
+
+    Raises:
+        ValueError: The fleet's regime is not ``id``.
+    """
+    env = make_fleet_env_v2(fleet, **kwargs)
+    regime = env.unwrapped.config.regime  # type: ignore[attr-defined]
+    if regime != "id":
+        env.close()
+        raise ValueError(
+            f"BrakeWearFleet-v1 was replaced by BrakeWearFleet-v2 for fleets of the {regime!r}"
+            " wear regime: v2 prices the net's credit for pad life left over the regime's"
+            " labels, where v1 priced it over a mean-K pad's life and so credited a fresh pad"
+            " well above its cost; use"
+            ' gym.make("BrakeWearFleet-v2", ...)'
+        )
+    return env

@@ -1,12 +1,19 @@
 """An episode's cost per vehicle-shift, as the benchmark scores it: the headline (pads priced
 when fitted) and the net (less the pad life left at the end), and the wrapper that puts both
-in the last step's ``info`` (``BrakeWearFleet-v1``).
+in the last step's ``info`` (``BrakeWearFleet-v2``).
 
 The headline prices pads when fitted, so that neither the free initial stock nor the spares
 left at the end (which the env's bill prices when ordered) move it; order and holding costs
 are in. The net also credits the pad life left at the end at the price of a fitted pad's
-expected hot life: an episode's end is arbitrary (the mine goes on), and a policy that runs
-its pads down before it leaves the next shifts the bill. The Lagrangian bound is on the net.
+expected hot life (:func:`credit_life`): an episode's end is arbitrary (the mine goes on),
+and a policy that runs its pads down before it leaves the next shifts the bill. The
+Lagrangian bound is on the net.
+
+``BrakeWearFleet-v2`` prices that life over a new pad's life with each wear label at its
+mean K, weighted by the regime's shares; ``v1`` priced it over a mean-K pad's life. The two
+are the same number in the ``id`` regime; in ``mixed`` the v1 price credited a fresh pad
+1.33 times its cost on average (slow pads live 2.5 times as long as a mean-K one), so a
+policy gained by fitting pads just before the episode's end.
 """
 
 from __future__ import annotations
@@ -17,21 +24,32 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
+from brake_env.env.config import RegimeFields
 from brake_env.env.fleet.config import COST_TERMS
 from brake_env.env.fleet.routes import HOT, route_wear_model
+from brake_env.model.wear import WearModel
 
 FITS = ("window_fits", "shop_fits", "visits", "corrective_fits")
 """The counts that each fit a pad set (``info["counts"]``)."""
 
 
+def credit_life(config: RegimeFields, wear: WearModel) -> float:
+    """The hot life [events] over which a fit's ``pad + labour`` prices the life left: a new
+    pad's expected life with each label at its mean K, weighted by the regime's shares
+    (``wear.life(k_mean)`` exactly in the ``id`` regime; module docstring)."""
+    regime = config.pad_regime
+    shares = regime.shares()
+    return float(sum(s * float(wear.life(regime.wear.mean(label))) for label, s in shares.items()))
+
+
 def life_value(env: Any) -> float:
-    """The fleet's pad life left now, priced: each pad's expected hot life [shifts] (its
-    true volume and K) times ``pad + labour`` over a mean-K pad's hot life, summed."""
+    """The fleet's pad life left now, priced: each pad's expected hot life [events] (its
+    true volume and K) times ``pad + labour`` over :func:`credit_life`, summed."""
     c = env.config
     wear = route_wear_model(env.atlas, HOT)
     truth = env.truth()
     left = wear.rul(np.clip(truth["volume_frac"], wear.lower_edges[-1], 1.0), truth["wear_coeff"])
-    per_event = (c.costs.pad + c.costs.labour) / float(wear.life(c.k_mean))
+    per_event = (c.costs.pad + c.costs.labour) / credit_life(c, wear)
     return float(per_event * left.sum())
 
 

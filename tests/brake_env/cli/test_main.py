@@ -81,7 +81,7 @@ def test_atlas_command_and_demo(tmp_path, monkeypatch) -> None:
     times = report.split("## Stage times")[1].split("\n## ")[0]
     stages = [r.split("|")[1].strip() for r in times.splitlines() if r.startswith("| ")][1:]
     assert stages == ["atlas", "datasets", "evaluate", "compare", "fleet", "diagnose", "total"]
-    assert "## The fleet study (BrakeWearFleet-v1, `small` fleet)" in report
+    assert "## The fleet study (BrakeWearFleet-v2, `small` fleet)" in report
     demo = tmp_path / "demo"
     # The comparison: its table, and the agent it was given no budget to train named.
     assert "not trained" in report and "| policy |" in report

@@ -1,5 +1,5 @@
 """Fleet files (issue 41): the shipped fleets, a file read back equal, one error naming the
-file and the key, ``gym.make("BrakeWearFleet-v1", fleet=...)`` and the PettingZoo version
+file and the key, ``gym.make("BrakeWearFleet-v2", fleet=...)`` and the PettingZoo version
 on a file, and the episode's cost in the last step's info, equal to the runner's."""
 
 from __future__ import annotations
@@ -93,10 +93,10 @@ def test_an_unknown_fleet_names_the_shipped_ones() -> None:
 def test_v1_runs_the_file_s_fleet_and_v0_keeps_working(tmp_path, atlas) -> None:
     path = tmp_path / "f.toml"
     path.write_text(fleet_toml(FleetFile("f", "-", FleetConfig(**SMALL))))
-    env = gym.make("BrakeWearFleet-v1", fleet=str(path), atlas=atlas)
+    env = gym.make("BrakeWearFleet-v2", fleet=str(path), atlas=atlas)
     assert env.unwrapped.config == FleetConfig(**SMALL)
-    assert gym.spec("BrakeWearFleet-v1").max_episode_steps == 365
-    assert gym.make("BrakeWearFleet-v1").unwrapped.config == FleetConfig(episode_shifts=365)
+    assert gym.spec("BrakeWearFleet-v2").max_episode_steps == 365
+    assert gym.make("BrakeWearFleet-v2").unwrapped.config == FleetConfig(episode_shifts=365)
     assert gym.make("BrakeWearFleet-v0").unwrapped.config == FleetConfig()
     with pytest.raises(ValueError, match="config or fleet"):
         BrakeWearFleetEnv(FleetConfig(), fleet="small")
@@ -118,7 +118,7 @@ def test_the_last_step_s_episode_cost_equals_the_runner_s(atlas) -> None:
         def predict(self, obs, deterministic=True):
             return np.zeros(env.action_space.shape, dtype=np.int64), None
 
-    env = gym.make("BrakeWearFleet-v1", fleet="small", atlas=atlas, episode_shifts=40)
+    env = gym.make("BrakeWearFleet-v2", fleet="small", atlas=atlas, episode_shifts=40)
     want = run_episode(env, Hot(), seed=3)
     env.reset(seed=3)
     seen = []
