@@ -6,8 +6,9 @@ A baseline is named ``PREDICTOR-rule`` (the best rule tuned on the dev side with
 predictor's RUL: its heuristic chosen by the tuning episodes, its parameters), ``priced``
 (the price-directed policy, on the truth), ``PREDICTOR-rollout`` (the rollout planner on that
 rule) or ``reference`` (the perfect-information reference, 2 vehicles only); ``bound`` is the
-Lagrangian bound on each test episode. The rules can be rebuilt from their settings and
-re-scored exactly (:func:`rebuild`); the others are read.
+Lagrangian bound on each test episode. The rules, rollouts, the priced policy and the
+reference can be rebuilt from their settings and re-scored exactly (:func:`rebuild`); the
+distilled policies are read (their nets are not kept).
 
 Some baselines can be remade alone (``fleet-baselines --only bound,priced``) and merged into
 the shipped file (:func:`merge`): each remade one records its own ``command`` (the file's
@@ -26,6 +27,8 @@ from typing import Any
 import numpy as np
 
 from agents.fleet.benchmark.suite import Suite
+from agents.fleet.policies.reference import ReferenceModel, ReferencePolicy, solve
+from agents.fleet.policies.rules import FleetRuleParams
 from agents.fleet.policies.view import FleetLayout
 from agents.fleet.settings import FleetStudyConfig
 from agents.fleet.study.build import episodes_of, rebuild_rule, rul_env
@@ -101,6 +104,12 @@ def rebuilt_from(summary: dict[str, Any], kind: str, predictor: str) -> dict[str
                             "seed": cfg["seed"]}}  # fmt: skip
     if kind == "priced":  # the search's steps (its history also holds the zero prices)
         return {"steps": int(cfg["bound_iterations"])}
+    if kind == "reference":  # its spares are the oracle's best rule's (s, S)
+        best = summary["best_heuristic"].get(ORACLE)
+        rule = next((r for r in summary["rows"]
+                     if r["predictor"] == ORACLE and r["policy"] == best), None)  # fmt: skip
+        spares = None if rule is None else {"policy": best, "params": rule["params"]}
+        return {"tail": int(cfg["tail"]), "spares_of": spares}
     return {}
 
 
@@ -148,10 +157,12 @@ def rebuild(
     test split's starts: :func:`~agents.fleet.study.planners.priced_policy`).
 
     Raises:
-        ValueError: A kind that is read, not rebuilt (distilled, reference), or a baseline
-            made before its settings were recorded.
+        ValueError: A kind that is read, not rebuilt (distilled), or a baseline made before
+            its settings were recorded.
     """
     kind, p = entry.get("kind"), str(entry.get("predictor"))
+    if kind == "reference":
+        return _reference(config, entry, atlas)
     if kind == "priced":
         if "steps" not in entry:
             raise ValueError("baseline priced: made before its price steps were recorded;"
@@ -159,8 +170,9 @@ def rebuild(
         full = suite.study_config("test", bound_iterations=int(entry["steps"]))
         return priced_policy(full, atlas)
     if kind not in ("rule", "rollout"):
-        raise ValueError(f"baseline of kind {kind!r}: only rules, rollouts and the priced"
-                         " policy are re-scored; its shipped episodes are read")  # fmt: skip
+        raise ValueError(f"baseline of kind {kind!r}: only rules, rollouts, the priced policy"
+                         " and the reference are re-scored; its shipped episodes are"
+                         " read")  # fmt: skip
     fitted = None if p == ORACLE else study_fit(config, p, atlas, atlas)
     if kind == "rule":
         return rul_env(config, atlas, p, fitted), rebuild_rule(config, entry["policy"],
@@ -175,6 +187,22 @@ def rebuild(
     run = replace(config, rollout_horizon=int(planner["horizon"]),
                   rollout_samples=int(planner["samples"]), seed=int(planner["seed"]))  # fmt: skip
     return rul_env(config, atlas, p, fitted, fields), study_planner(run, atlas, rule)
+
+
+def _reference(config: FleetStudyConfig, entry: dict[str, Any], atlas: Atlas) -> tuple[Any, Any]:
+    """The perfect-information reference as its study ran it: the exact program with its
+    ``tail``, spares by the (s, S) of the rule in ``spares_of`` (the rules' default if
+    none), on the truth (:func:`~agents.fleet.study.units.reference_unit`)."""
+    if "tail" not in entry:
+        raise ValueError("baseline reference: made before its tail and spares were recorded;"
+                         " its shipped episodes are read")  # fmt: skip
+    env = rul_env(config, atlas, ORACLE, None)
+    model = ReferenceModel.build(config.fleet, atlas)
+    sp = entry["spares_of"]
+    params = (FleetRuleParams() if sp is None
+              else rebuild_rule(config, sp["policy"], sp["params"]).params)  # fmt: skip
+    policy = ReferencePolicy(env, model, solve(model, int(entry["tail"])), params.s, params.S)
+    return env, policy
 
 
 BOUND = "bound"

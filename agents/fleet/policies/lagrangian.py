@@ -166,7 +166,9 @@ class BoundModel:
         prob = new_pad_prob(wear, config, unit_events, H - slack, k_cut, boost)
         prob = np.concatenate([np.zeros(slack), prob])
         use = mild_use(wear, ratios, units, H, k_cut, unit_events) if k_cut > 0 else None
-        per_unit = (config.costs.pad + config.costs.labour) * unit_events / credit_life(config, wear)
+        per_unit = (
+            (config.costs.pad + config.costs.labour) * unit_events / credit_life(config, wear)
+        )
         mild = int(np.floor(units * ratios.min()))
         share = config.costs.order / config.max_order if orders else 0.0
         # outside id, slow pads outlive the cap: their units beyond are credited at a fit

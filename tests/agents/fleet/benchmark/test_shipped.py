@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from agents.fleet.benchmark.baselines import read_baselines
+from agents.fleet.benchmark.baselines import read_baselines, rebuilt_from
 from agents.fleet.benchmark.entries import read_entries
 from agents.fleet.benchmark.page import BEGIN, END, leaderboard
 from agents.fleet.benchmark.score import Adapted, load_factory, score
@@ -79,3 +79,46 @@ def test_a_shipped_learned_entry_re_scored_gives_its_figures(entry, factory, twi
     got = [run_episode(env, policy, seed, check_masks=True) for seed in config.eval_seeds()[:1]]
     assert [e.seed for e in got] == want["episodes"]["seed"][:1]
     assert [e.net for e in got] == want["episodes"]["net"][:1]
+
+
+def test_a_baselines_file_of_the_env_id_before_the_credit_change_is_refused(tmp_path) -> None:
+    """v1's figures stand on ``id`` fleets (v2 gives the same episodes there), not on a
+    mixed one, whose net changed in v2."""
+    import json
+
+    for name, ok in (("small", True), ("default-mixed", False)):
+        suite = read_suite(name)
+        f = tmp_path / f"{name}.json"
+        f.write_text(json.dumps({**read_baselines(suite), "env_id": "BrakeWearFleet-v1"}))
+        if ok:
+            assert read_baselines(suite, f)["env_id"] == "BrakeWearFleet-v1"
+        else:
+            with pytest.raises(ValueError, match="measured on BrakeWearFleet-v1"):
+                read_baselines(suite, f)
+
+
+def test_the_shipped_reference_re_scored_on_a_test_episode_gives_its_figures(atlas) -> None:
+    """The exact program rebuilt from its ``tail`` and its spares' rule (the oracle's best,
+    as the study gave it), on the first test episode of ``small``."""
+    suite = read_suite("small")
+    shipped = read_baselines(suite)
+    entry = shipped["baselines"]["reference"]
+    assert entry["spares_of"]["params"] == shipped["baselines"]["oracle-rule"]["params"]
+    got = score(suite, "baseline:reference", atlas, episodes=1)
+    assert got["episodes"]["net"] == entry["episodes"]["net"][:1]
+    assert got["episodes"]["cost"] == entry["episodes"]["cost"][:1]
+
+
+def test_a_study_s_reference_records_its_tail_and_the_oracle_s_rule() -> None:
+    rule = {"predictor": "oracle", "policy": "threshold", "params": {"s": 2}}
+    summary = {
+        "config": {"tail": 120},
+        "best_heuristic": {"oracle": "threshold"},
+        "rows": [{"predictor": "twin", "policy": "threshold", "params": {"s": 9}}, rule],
+    }
+    assert rebuilt_from(summary, "reference", "oracle") == {
+        "tail": 120,
+        "spares_of": {"policy": "threshold", "params": {"s": 2}},
+    }
+    no_oracle = {**summary, "best_heuristic": {"twin": "threshold"}}
+    assert rebuilt_from(no_oracle, "reference", "oracle") == {"tail": 120, "spares_of": None}

@@ -13,7 +13,9 @@ from scipy.stats import kstest
 from agents.fleet.evaluation.gap_terms import bound_terms
 from agents.fleet.policies.lagrangian import FLOOR_SHARE, BoundModel, Prices, bound, solve
 from agents.fleet.policies.lagrangian_wear import k_cdf, k_floor, new_pad_prob, new_pad_tail
+from agents.fleet.policies.planning import PlanningModel
 from brake_env.env.fleet.config import FleetConfig
+from brake_env.env.fleet.episode_cost import credit_life
 from brake_env.env.fleet.routes import HOT, route_wear_model
 
 
@@ -105,3 +107,17 @@ def test_the_mixed_model_credits_slow_pads_and_the_id_model_is_unchanged(atlas):
     k = np.full(4, FleetConfig().k_mean)
     assert i.excess(np.ones(4), k) == 0.0
     assert m.excess(np.ones(4), np.full(4, mixed.wear.mean("ood-slow") / 2)) > 0
+
+
+def test_the_bound_and_the_rollout_price_the_life_left_as_the_env_s_net(atlas):
+    """The bound's terminal credit per unit and the rollout's per hot shift are the net's
+    price (:func:`credit_life`), in ``id`` and in ``mixed`` (BrakeWearFleet-v2)."""
+    wear = route_wear_model(atlas, HOT)
+    for c in (FleetConfig(), FleetConfig(regime="mixed", episode_shifts=365)):
+        fit = c.costs.pad + c.costs.labour
+        m = BoundModel.build(c, atlas, credit=True)
+        per_event = fit / credit_life(c, wear)
+        assert m.credit == pytest.approx(per_event * c.events_per_shift / m.units, rel=1e-12)
+        p = PlanningModel.build(c, atlas)
+        assert p.fit_cost / p.mean_life == pytest.approx(per_event * c.events_per_shift,
+                                                         rel=1e-9)  # fmt: skip

@@ -90,7 +90,7 @@ def test_an_unknown_fleet_names_the_shipped_ones() -> None:
         read_fleet("nowhere.toml")
 
 
-def test_v1_runs_the_file_s_fleet_and_v0_keeps_working(tmp_path, atlas) -> None:
+def test_v2_runs_the_file_s_fleet_and_v0_keeps_working(tmp_path, atlas) -> None:
     path = tmp_path / "f.toml"
     path.write_text(fleet_toml(FleetFile("f", "-", FleetConfig(**SMALL))))
     env = gym.make("BrakeWearFleet-v2", fleet=str(path), atlas=atlas)
