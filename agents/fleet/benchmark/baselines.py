@@ -101,7 +101,8 @@ def rebuilt_from(summary: dict[str, Any], kind: str, predictor: str) -> dict[str
                     if r["predictor"] == predictor and r["policy"] == best)  # fmt: skip
         return {"base": {"policy": best, "params": rule["params"]},
                 "planner": {"horizon": cfg["rollout_horizon"], "samples": cfg["rollout_samples"],
-                            "seed": cfg["seed"]}}  # fmt: skip
+                            "seed": cfg["seed"] if cfg.get("rollout_seed") is None
+                            else cfg["rollout_seed"]}}  # fmt: skip
     if kind == "priced":  # the search's steps (its history also holds the zero prices)
         return {"steps": int(cfg["bound_iterations"])}
     if kind == "reference":  # its spares are the oracle's best rule's (s, S)
@@ -185,7 +186,8 @@ def rebuild(
     rule = rebuild_rule(config, base["policy"], base["params"],
                         FleetLayout.of(config.fleet, fields=fields))  # fmt: skip
     run = replace(config, rollout_horizon=int(planner["horizon"]),
-                  rollout_samples=int(planner["samples"]), seed=int(planner["seed"]))  # fmt: skip
+                  rollout_samples=int(planner["samples"]),
+                  rollout_seed=int(planner["seed"]))  # fmt: skip
     return rul_env(config, atlas, p, fitted, fields), study_planner(run, atlas, rule)
 
 

@@ -62,6 +62,10 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
     b.add_argument("--trials-best", type=int_at_least(1), default=45, help="the rule's Optuna")
     b.add_argument("--bound-iterations", type=int_at_least(0), default=200)
     b.add_argument("--rollout", default="", help="predictors given the rollout planner")
+    b.add_argument(
+        "--planner-seed", type=int_at_least(0), default=None, metavar="N",
+        help="the rollout planner's seed (default: the suite's seed, which also seeds the fits)",
+    )  # fmt: skip
     _only_args(b)
     add_runner_args(b, workers=2)
     b.set_defaults(func="agents.fleet.commands.benchmark:cmd_fleet_baselines")
@@ -178,6 +182,7 @@ def cmd_fleet_baselines(args: argparse.Namespace) -> dict[str, Any]:
         heuristics=("best combination",), trials_best=args.trials_best,
         bound_iterations=args.bound_iterations,
         rollout_predictors=tuple(p for p in args.rollout.split(",") if p),
+        rollout_seed=args.planner_seed,
     )  # fmt: skip
     out = Path(args.out)
     with make_runner(args) as runner:
@@ -216,7 +221,8 @@ def _only(suite: Any, args: argparse.Namespace) -> dict[str, Any]:
     rollout = tuple(p for p in preds if f"{p}-rollout" in names)
     config = suite.study_config("test", predictors=preds or ("oracle",),
                                 heuristics=("best combination",), trials_best=args.trials_best,
-                                bound_iterations=bound, rollout_predictors=rollout)  # fmt: skip
+                                bound_iterations=bound, rollout_predictors=rollout,
+                                rollout_seed=args.planner_seed)  # fmt: skip
     command = command_line(args)
     out, atlas = Path(args.out), suite_atlas(suite, args)
     if preds or "reference" in names:

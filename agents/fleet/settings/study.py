@@ -106,6 +106,8 @@ class FleetStudyConfig:
         rollout_horizon, rollout_samples: The planner's shifts simulated per candidate and
             sampled futures.
         rollout_chunk: Evaluation episodes per rollout unit.
+        rollout_seed: Seed of the planner's sampled futures (None: ``seed``, as before it
+            could be set apart from the fits').
         bound_iterations: Price vectors the Lagrangian bound's search tries (0: no bound);
             with the bound, the price-directed policy runs on the evaluation episodes too.
         objective: What the heuristics are tuned on, the best heuristic is chosen on, the
@@ -143,6 +145,7 @@ class FleetStudyConfig:
     rollout_horizon: int = 28
     rollout_samples: int = 16
     rollout_chunk: int = 5
+    rollout_seed: int | None = None
     bound_iterations: int = 0
     objective: Objective = "cost"
     effects: tuple[str, ...] = ()
@@ -190,6 +193,9 @@ class FleetStudyConfig:
                 raise ValueError(
                     f"FleetStudyConfig: {name} must be >= 1, got {getattr(self, name)}"
                 )
+        if self.rollout_seed is not None and not 0 <= int(self.rollout_seed) < 2**31:
+            raise ValueError(f"FleetStudyConfig: rollout_seed must be in [0, 2**31), got"
+                             f" {self.rollout_seed}")  # fmt: skip
         if min(self.agent_seeds, self.shared_seeds, self.bound_iterations) < 0:
             raise ValueError(f"FleetStudyConfig: agent_seeds, shared_seeds and bound_iterations"
                              f" must be >= 0, got {self.agent_seeds}, {self.shared_seeds} and"
@@ -326,8 +332,14 @@ class FleetStudyConfig:
         """A rollout unit's key; its base (the best heuristic) depends on which were tuned."""
         base = json.dumps([sorted(self.heuristics), self.trials, self.trials_best])
         digest = hashlib.sha256(base.encode()).hexdigest()[:8]
+        seed = "" if self.rollout_seed is None else f"-p{self.rollout_seed}"
         return (f"rollout-{predictor}-h{self.rollout_horizon}-s{self.rollout_samples}"
-                f"-c{self.rollout_chunk}-{chunk}-{digest}{self.physics_tag()}")  # fmt: skip
+                f"-c{self.rollout_chunk}{seed}-{chunk}-{digest}{self.physics_tag()}")  # fmt: skip
+
+    @property
+    def planner_seed(self) -> int:
+        """The rollout planner's seed (:attr:`rollout_seed`, else :attr:`seed`)."""
+        return self.seed if self.rollout_seed is None else int(self.rollout_seed)
 
     def bound_key(self) -> str:
         return f"bound-i{self.bound_iterations}{self.physics_tag()}"

@@ -112,8 +112,9 @@ def study_planner(config: FleetStudyConfig, atlas: Atlas, base: Any) -> RolloutP
     cannot be built (a wear regime other than ``id``)."""
     cfg = config.fleet
     terminal = program_value(cfg, atlas) if cfg.regime == "id" else None
-    return RolloutPolicy(base, PlanningModel.build(cfg, atlas), config.rollout_horizon,
-                         config.rollout_samples, config.seed, terminal=terminal)  # fmt: skip
+    model = PlanningModel.build(cfg, atlas)
+    return RolloutPolicy(base, model, config.rollout_horizon, config.rollout_samples,
+                         config.planner_seed, terminal=terminal)  # fmt: skip
 
 
 def rollout_unit(

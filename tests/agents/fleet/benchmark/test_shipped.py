@@ -122,3 +122,12 @@ def test_a_study_s_reference_records_its_tail_and_the_oracle_s_rule() -> None:
     }
     no_oracle = {**summary, "best_heuristic": {"twin": "threshold"}}
     assert rebuilt_from(no_oracle, "reference", "oracle") == {"tail": 120, "spares_of": None}
+
+
+def test_a_rollout_records_the_planner_s_own_seed_when_set_apart() -> None:
+    rule = {"predictor": "oracle", "policy": "threshold", "params": {"s": 2}}
+    cfg = {"rollout_horizon": 5, "rollout_samples": 4, "seed": 0}
+    summary = {"config": cfg, "best_heuristic": {"oracle": "threshold"}, "rows": [rule]}
+    assert rebuilt_from(summary, "rollout", "oracle")["planner"]["seed"] == 0
+    moved = {**summary, "config": {**cfg, "rollout_seed": 2}}
+    assert rebuilt_from(moved, "rollout", "oracle")["planner"]["seed"] == 2

@@ -74,6 +74,20 @@ def test_the_config_names_what_is_wrong():
     assert chunks == [[0, 1, 2], [3, 4, 5], [6]]
     only_shared = FleetStudyConfig(agent_predictors=("twin",), agent_seeds=0, shared_seeds=2)
     assert only_shared.agent_runs() == [("shared", "twin", 0), ("shared", "twin", 1)]
+    with pytest.raises(ValueError, match="rollout_seed must be in"):
+        FleetStudyConfig(rollout_seed=-1)
+
+
+def test_the_planner_s_seed_is_set_apart_from_the_fits_only_when_asked():
+    """Unset, the planner draws with the study's seed and its units keep their keys; set, a
+    rollout unit of another planner seed has another key (its figures differ)."""
+    base = FleetStudyConfig(seed=4)
+    assert base.planner_seed == 4
+    moved = dataclasses.replace(base, rollout_seed=2)
+    assert moved.planner_seed == 2 and moved.seed == 4
+    assert base.rollout_key("twin", 0) == dataclasses.replace(base, seed=9).rollout_key("twin", 0)
+    assert "-p2-" in moved.rollout_key("twin", 0)
+    assert moved.rollout_key("twin", 0) != base.rollout_key("twin", 0)
 
 
 @pytest.fixture(scope="module")
