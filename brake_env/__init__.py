@@ -6,10 +6,10 @@ logs and datasets), ``prognostics`` (predictor protocol and registry, metrics, e
 Importing the package registers ``BrakeWear-v0``, ``BrakeWearFleet-v2`` (the benchmark's
 fleet: a fleet file, 365 shifts, the episode's cost in the last step's ``info``; docs/
 benchmark.md), and the earlier ``BrakeWearFleet-v1`` (the same on ``id``-regime fleets; it
-refuses the others, whose net changed in v2), ``BrakeWearFleet-v0`` (730 shifts, no episode cost) and
-``BrakeWearFleetSmall-v0`` (the 2-vehicle fleet, ``SMALL_FLEET``), which keep working. No torch or
-Stable-Baselines3 here, and no import of the downstream packages (twin, baselines, agents,
-sim2real): they plug in through entry points.
+refuses the others, whose net changed in v2), ``BrakeWearFleet-v0`` (730 shifts, no episode
+cost) and ``BrakeWearFleetSmall-v0`` (the 2-vehicle fleet, ``SMALL_FLEET``), which keep
+working. No torch or Stable-Baselines3 here, and no import of the downstream packages (twin,
+baselines, agents, sim2real): they plug in through entry points.
 """
 
 from gymnasium.envs.registration import register, registry
