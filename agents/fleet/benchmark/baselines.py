@@ -27,7 +27,6 @@ from typing import Any
 import numpy as np
 
 from agents.fleet.benchmark.suite import Suite
-from agents.fleet.policies.reference import ReferenceModel, ReferencePolicy, solve
 from agents.fleet.policies.rules import FleetRuleParams
 from agents.fleet.policies.view import FleetLayout
 from agents.fleet.settings import FleetStudyConfig
@@ -40,7 +39,7 @@ from agents.fleet.study.planners import (
     study_planner,
 )
 from agents.fleet.study.summary import REFERENCE
-from agents.fleet.study.units import study_fit
+from agents.fleet.study.units import reference_policy, study_fit
 from brake_env.model.atlas import Atlas
 from brake_env.prognostics.registry import ORACLE
 
@@ -198,13 +197,10 @@ def _reference(config: FleetStudyConfig, entry: dict[str, Any], atlas: Atlas) ->
     if "tail" not in entry:
         raise ValueError("baseline reference: made before its tail and spares were recorded;"
                          " its shipped episodes are read")  # fmt: skip
-    env = rul_env(config, atlas, ORACLE, None)
-    model = ReferenceModel.build(config.fleet, atlas)
     sp = entry["spares_of"]
     params = (FleetRuleParams() if sp is None
               else rebuild_rule(config, sp["policy"], sp["params"]).params)  # fmt: skip
-    policy = ReferencePolicy(env, model, solve(model, int(entry["tail"])), params.s, params.S)
-    return env, policy
+    return reference_policy(replace(config, tail=int(entry["tail"])), atlas, params.s, params.S)
 
 
 BOUND = "bound"

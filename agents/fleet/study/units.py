@@ -265,13 +265,21 @@ def heuristic_unit(
     }  # fmt: skip
 
 
+def reference_policy(
+    config: FleetStudyConfig, atlas: Atlas, s: int, S: int
+) -> tuple[Any, ReferencePolicy]:
+    """(the env on the truth, the perfect-information reference): the exact program with
+    ``config.tail`` shifts beyond the episode, spares by (s, S)."""
+    env = rul_env(config, atlas, ORACLE, None)
+    model = ReferenceModel.build(config.fleet, atlas)
+    return env, ReferencePolicy(env, model, solve(model, config.tail), s, S)
+
+
 def reference_unit(config: FleetStudyConfig, atlas: Atlas, s: int, S: int) -> dict[str, Any]:
     """The perfect-information reference on the evaluation episodes, spares by (s, S)."""
     t0 = time.perf_counter()
-    env = rul_env(config, atlas, ORACLE, None)
-    model = ReferenceModel.build(config.fleet, atlas)
-    solution = solve(model, config.tail)
-    policy = ReferencePolicy(env, model, solution, s, S)
+    env, policy = reference_policy(config, atlas, s, S)
+    model, solution = policy.model, policy.solution
     eps = run_episodes(env, policy, config.eval_seeds(), check_masks=True)
     predicted = [_predicted(env, model, solution, seed) for seed in config.eval_seeds()]
     return {"predictor": ORACLE, "policy": "perfect-information reference", "s": s, "S": S,
