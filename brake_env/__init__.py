@@ -37,7 +37,7 @@ BENCHMARK_SHIFTS = 365
 if "BrakeWearFleet-v0" not in registry:
     register(
         id="BrakeWearFleet-v0",
-        entry_point="brake_env.env.fleet.env:make_fleet_env",
+        entry_point="brake_env.env.fleet.registered:make_fleet_env",
         max_episode_steps=FLEET_SHIFTS,
         disable_env_checker=False,
     )
@@ -49,7 +49,7 @@ for version in ("v1", "v2"):
     if f"BrakeWearFleet-{version}" not in registry:
         register(
             id=f"BrakeWearFleet-{version}",
-            entry_point=f"brake_env.env.fleet.env:make_fleet_env_{version}",
+            entry_point=f"brake_env.env.fleet.registered:make_fleet_env_{version}",
             max_episode_steps=BENCHMARK_SHIFTS,
             disable_env_checker=False,
         )
@@ -57,7 +57,7 @@ for version in ("v1", "v2"):
 if "BrakeWearFleetSmall-v0" not in registry:
     register(
         id="BrakeWearFleetSmall-v0",
-        entry_point="brake_env.env.fleet.env:make_fleet_env",
+        entry_point="brake_env.env.fleet.registered:make_fleet_env",
         kwargs=dict(SMALL_FLEET),
         max_episode_steps=FLEET_SHIFTS,
         disable_env_checker=False,

@@ -12,7 +12,6 @@ from numpy.typing import NDArray
 from brake_env.env.fleet import rules
 from brake_env.env.fleet import spaces as fs
 from brake_env.env.fleet.config import COST_TERMS, ENV_ID, FleetConfig
-from brake_env.env.fleet.episode_cost import EpisodeCostInfo
 from brake_env.env.fleet.fleet_file import read_fleet
 from brake_env.env.fleet.model import breaks
 from brake_env.env.fleet.pads import FleetPads, ShiftEvents
@@ -20,7 +19,7 @@ from brake_env.env.fleet.render import FleetFrame, ansi
 from brake_env.env.fleet.routes import UNIFORM, route_indices, route_wear_model
 from brake_env.env.fleet.shop import Plan, Workshop
 from brake_env.env.fleet.state import FleetState, read_state, restore
-from brake_env.env.shared import check_render_mode, env_atlas, make_registered
+from brake_env.env.shared import check_render_mode, env_atlas
 from brake_env.model.atlas import Atlas
 
 
@@ -376,41 +375,3 @@ class BrakeWearFleetEnv(gym.Env[NDArray[np.float32], NDArray[np.int64]]):
         return fs.fleet_observation(
             self.config, summary, self.pads.pos, self.shop, self.shift, self._box
         )
-
-
-def make_fleet_env(**kwargs: Any) -> gym.Env[Any, Any]:
-    """The registered entry point of the v0 fleet envs (:func:`make_registered`)."""
-    return make_registered(BrakeWearFleetEnv, **kwargs)
-
-
-def make_fleet_env_v2(
-    fleet: str | os.PathLike[str] = "default", **kwargs: Any
-) -> gym.Env[Any, Any]:
-    """``BrakeWearFleet-v2``'s entry point: the benchmark's fleet (a fleet file or a shipped
-    fleet's name; ``default``: 12 vehicles, 365 shifts) with the episode's headline and net
-    cost in the last step's ``info["episode_cost"]`` (:class:`EpisodeCostInfo`)."""
-    return EpisodeCostInfo(make_registered(BrakeWearFleetEnv, fleet=fleet, **kwargs))
-
-
-def make_fleet_env_v1(
-    fleet: str | os.PathLike[str] = "default", **kwargs: Any
-) -> gym.Env[Any, Any]:
-    """``BrakeWearFleet-v1``: ``v2`` on a fleet of the ``id`` wear regime, where the two
-    give the same episodes; other regimes' net credit changed in ``v2``
-    (:mod:`.episode_cost`), so ``v1`` refuses them rather than give another figure.
-
-    Raises:
-        ValueError: The fleet's regime is not ``id``.
-    """
-    env = make_fleet_env_v2(fleet, **kwargs)
-    regime = env.unwrapped.config.regime  # type: ignore[attr-defined]
-    if regime != "id":
-        env.close()
-        raise ValueError(
-            f"BrakeWearFleet-v1 was replaced by BrakeWearFleet-v2 for fleets of the {regime!r}"
-            " wear regime: v2 prices the net's credit for pad life left over the regime's"
-            " labels, where v1 priced it over a mean-K pad's life and so credited a fresh pad"
-            " well above its cost; use"
-            ' gym.make("BrakeWearFleet-v2", ...)'
-        )
-    return env
