@@ -97,6 +97,10 @@ class PadRegime:
         shares: dict[Label, float] = {"id": 1.0 - s, "ood-slow": s / 2, "ood-fast": s / 2}
         return {k: v for k, v in shares.items() if v > 0}
 
+    def components(self) -> list[tuple[float, float]]:
+        """(share, mean K) of each label new pads are drawn from (:meth:`shares`)."""
+        return [(s, self.wear.mean(label)) for label, s in self.shares().items()]
+
     def draw(self, rng: np.random.Generator) -> tuple[float, Label]:
         """K of one new pad and its label (``id``, ``ood-slow`` or ``ood-fast``)."""
         ood = self.kind == "ood" or (self.kind == "mixed" and rng.random() < self.ood_share)

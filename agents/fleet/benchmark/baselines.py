@@ -27,7 +27,6 @@ from typing import Any
 import numpy as np
 
 from agents.fleet.benchmark.suite import Suite
-from agents.fleet.policies.rules import FleetRuleParams
 from agents.fleet.policies.view import FleetLayout
 from agents.fleet.settings import FleetStudyConfig
 from agents.fleet.study.build import episodes_of, rebuild_rule, rul_env
@@ -39,7 +38,7 @@ from agents.fleet.study.planners import (
     study_planner,
 )
 from agents.fleet.study.summary import REFERENCE
-from agents.fleet.study.units import reference_policy, study_fit
+from agents.fleet.study.units import reference_policy, rule_spares, study_fit
 from brake_env.model.atlas import Atlas
 from brake_env.prognostics.registry import ORACLE
 
@@ -95,22 +94,23 @@ def rebuilt_from(summary: dict[str, Any], kind: str, predictor: str) -> dict[str
     planner, the price-directed policy's price steps (its prices are the bound's search)."""
     cfg = summary["config"]
     if kind == "rollout":
-        best = summary["best_heuristic"][predictor]
-        rule = next(r for r in summary["rows"]
-                    if r["predictor"] == predictor and r["policy"] == best)  # fmt: skip
-        return {"base": {"policy": best, "params": rule["params"]},
+        return {"base": _best_rule(summary, predictor),
                 "planner": {"horizon": cfg["rollout_horizon"], "samples": cfg["rollout_samples"],
                             "seed": cfg["seed"] if cfg.get("rollout_seed") is None
                             else cfg["rollout_seed"]}}  # fmt: skip
     if kind == "priced":  # the search's steps (its history also holds the zero prices)
         return {"steps": int(cfg["bound_iterations"])}
     if kind == "reference":  # its spares are the oracle's best rule's (s, S)
-        best = summary["best_heuristic"].get(ORACLE)
-        rule = next((r for r in summary["rows"]
-                     if r["predictor"] == ORACLE and r["policy"] == best), None)  # fmt: skip
-        spares = None if rule is None else {"policy": best, "params": rule["params"]}
-        return {"tail": int(cfg["tail"]), "spares_of": spares}
+        return {"tail": int(cfg["tail"]), "spares_of": _best_rule(summary, ORACLE)}
     return {}
+
+
+def _best_rule(summary: dict[str, Any], predictor: str) -> dict[str, Any] | None:
+    """A predictor's best rule in a study's summary (its name and parameters), or None."""
+    best = summary["best_heuristic"].get(predictor)
+    rule = next((r for r in summary["rows"]
+                 if r["predictor"] == predictor and r["policy"] == best), None)  # fmt: skip
+    return None if rule is None else {"policy": best, "params": rule["params"]}
 
 
 def shipped_path(suite: Suite) -> Path:
@@ -197,10 +197,9 @@ def _reference(config: FleetStudyConfig, entry: dict[str, Any], atlas: Atlas) ->
     if "tail" not in entry:
         raise ValueError("baseline reference: made before its tail and spares were recorded;"
                          " its shipped episodes are read")  # fmt: skip
-    sp = entry["spares_of"]
-    params = (FleetRuleParams() if sp is None
-              else rebuild_rule(config, sp["policy"], sp["params"]).params)  # fmt: skip
-    return reference_policy(replace(config, tail=int(entry["tail"])), atlas, params.s, params.S)
+    sp = entry["spares_of"] or {}
+    s, S = rule_spares(config, sp.get("policy"), sp.get("params"))
+    return reference_policy(replace(config, tail=int(entry["tail"])), atlas, s, S)
 
 
 BOUND = "bound"

@@ -71,7 +71,7 @@ def k_components(config: FleetConfig) -> list[tuple[float, float]]:
     """(share, mean) of each normal law in a new pad's K under the config's regime (the
     env's :meth:`~brake_env.env.config.PadRegime.draw`: ``id``, or an OOD pad, slow or
     fast with even odds); each is truncated at 0 (a draw <= 0 is drawn again)."""
-    return [(share, config.wear.mean(label)) for label, share in config.pad_regime.shares().items()]
+    return config.pad_regime.components()
 
 
 def k_cdf(config: FleetConfig, k: F64 | float) -> F64:

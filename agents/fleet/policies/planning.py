@@ -132,8 +132,7 @@ class PlanningModel:
         """Hot life [shifts] over which a fit's cost prices the life left: a new pad's, each
         wear label at its mean K (:func:`~brake_env.env.fleet.episode_cost.credit_life`; the
         mean-K pad's in ``id``)."""
-        r = self.config.pad_regime
-        return float(sum(s * self.life_per_k / r.wear.mean(k) for k, s in r.shares().items()))
+        return float(sum(s * self.life_per_k / k for s, k in self.config.pad_regime.components()))
 
     def draw(self, rng: np.random.Generator, futures: int, shifts: int, pads: int = 3) -> Futures:
         """Random numbers of ``futures`` futures of ``shifts`` shifts."""

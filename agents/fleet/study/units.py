@@ -236,10 +236,18 @@ def _planners(
 def _spares(config: FleetStudyConfig, results: dict[str, Any], best: str | None) -> tuple[int, int]:
     """The reference's reorder rule: the oracle's best heuristic's (s, S) (the rules' default
     when the oracle is not in the study)."""
-    if best is None:
+    params = None if best is None else results[config.heuristic_key(ORACLE, best)]["params"]
+    return rule_spares(config, best, params)
+
+
+def rule_spares(
+    config: FleetStudyConfig, policy: str | None, params: dict[str, Any] | None
+) -> tuple[int, int]:
+    """The (s, S) of a rule rebuilt from its name and parameters (the rules' default: None)."""
+    if policy is None or params is None:
         p = FleetRuleParams()
         return p.s, p.S
-    rule = rebuild_rule(config, best, results[config.heuristic_key(ORACLE, best)]["params"])
+    rule = rebuild_rule(config, policy, params)
     return int(rule.params.s), int(rule.params.S)
 
 

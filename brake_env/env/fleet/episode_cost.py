@@ -37,9 +37,7 @@ def credit_life(config: RegimeFields, wear: WearModel) -> float:
     """The hot life [events] over which a fit's ``pad + labour`` prices the life left: a new
     pad's expected life with each label at its mean K, weighted by the regime's shares
     (``wear.life(k_mean)`` exactly in the ``id`` regime; module docstring)."""
-    regime = config.pad_regime
-    shares = regime.shares()
-    return float(sum(s * float(wear.life(regime.wear.mean(label))) for label, s in shares.items()))
+    return float(sum(s * float(wear.life(k)) for s, k in config.pad_regime.components()))
 
 
 def life_value(env: Any) -> float:
