@@ -83,6 +83,9 @@ def new_pad_line(model: BoundModel, fits: np.ndarray) -> str:
 def policy_rows(suite: Any, spec: str, config: Any, atlas: Any) -> tuple[np.ndarray, float]:
     """((episodes, terms) of the policy, CPU seconds an episode)."""
     env, adapted, _ = suite_policy(suite, spec, atlas, config, read_baselines(suite))
+    if not hasattr(adapted, "predict"):
+        raise ValueError(f"--policies {spec}: a policy over seeds or per agent gives no"
+                         " one episode's terms; give a rule, a rollout or one policy")  # fmt: skip
     t0 = time.process_time()
     rows = []
     for seed in config.eval_seeds():

@@ -7,8 +7,9 @@ predictor's RUL: its heuristic chosen by the tuning episodes, its parameters), `
 (the price-directed policy, on the truth), ``PREDICTOR-rollout`` (the rollout planner on that
 rule) or ``reference`` (the perfect-information reference, 2 vehicles only); ``bound`` is the
 Lagrangian bound on each test episode. The rules, rollouts, the priced policy and the
-reference can be rebuilt from their settings and re-scored exactly (:func:`rebuild`); the
-distilled policies are read (their nets are not kept).
+reference can be rebuilt from their settings and re-scored exactly (:func:`rebuild`), and so
+can a distilled policy whose agents are shipped beside the file
+(:mod:`agents.fleet.benchmark.distilled`).
 
 Some baselines can be remade alone (``fleet-baselines --only bound,priced``) and merged into
 the shipped file (:func:`merge`): each remade one records its own ``command`` (the file's
@@ -24,8 +25,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
+from agents.fleet.benchmark.distilled import DISTILLED, rebuild_distilled
 from agents.fleet.benchmark.suite import Suite
 from agents.fleet.policies.view import FleetLayout
 from agents.fleet.settings import FleetStudyConfig
@@ -148,19 +148,24 @@ def read_baselines(suite: Suite, path: str | Path | None = None) -> dict[str, An
 
 
 def rebuild(
-    suite: Suite, entry: dict[str, Any], atlas: Atlas, config: FleetStudyConfig
-) -> tuple[Any, Any]:
+    suite: Suite, entry: dict[str, Any], atlas: Atlas, config: FleetStudyConfig,
+    directory: Path = BASELINES_DIR,
+) -> tuple[Any, Any]:  # fmt: skip
     """(the env, the policy) of a shipped baseline, as its study ran it on ``config``'s
     episodes: a rule (the suite's fit of its predictor, none for the oracle, and the rule
     from its parameters), a rollout (its base rule and planner settings) or the
     price-directed policy (on the truth, at the prices of the bound's search from the whole
-    test split's starts: :func:`~agents.fleet.study.planners.priced_policy`).
+    test split's starts: :func:`~agents.fleet.study.planners.priced_policy`) or a distilled
+    policy (every training seed's agent, from its nets file in ``directory``: the baselines
+    file's).
 
     Raises:
-        ValueError: A kind that is read, not rebuilt (distilled), or a baseline made before
-            its settings were recorded.
+        ValueError: A kind that is not rebuilt, or a baseline made before its settings (or
+            agents) were recorded.
     """
     kind, p = entry.get("kind"), str(entry.get("predictor"))
+    if kind == "distilled":
+        return rebuild_distilled(config, entry, atlas, directory)
     if kind == "reference":
         return _reference(config, entry, atlas)
     if kind == "priced":
@@ -170,9 +175,9 @@ def rebuild(
         full = suite.study_config("test", bound_iterations=int(entry["steps"]))
         return priced_policy(full, atlas)
     if kind not in ("rule", "rollout"):
-        raise ValueError(f"baseline of kind {kind!r}: only rules, rollouts, the priced policy"
-                         " and the reference are re-scored; its shipped episodes are"
-                         " read")  # fmt: skip
+        raise ValueError(f"baseline of kind {kind!r}: only rules, rollouts, the priced"
+                         " policy, the reference and distilled policies are re-scored; its"
+                         " shipped episodes are read")  # fmt: skip
     fitted = None if p == ORACLE else study_fit(config, p, atlas, atlas)
     if kind == "rule":
         return rul_env(config, atlas, p, fitted), rebuild_rule(config, entry["policy"],
@@ -203,7 +208,6 @@ def _reference(config: FleetStudyConfig, entry: dict[str, Any], atlas: Atlas) ->
 
 
 BOUND = "bound"
-DISTILLED = "-distilled"
 
 
 def split_only(only: str) -> tuple[set[str], tuple[str, ...]]:
@@ -222,44 +226,6 @@ def split_only(only: str) -> tuple[set[str], tuple[str, ...]]:
                          " PREDICTOR-distilled)")  # fmt: skip
     preds = tuple(sorted({n.rsplit("-", 1)[0] for n in names if n.endswith(("-rule", "-rollout"))}))
     return names, preds
-
-
-def distilled_baseline(
-    suite: Suite, distil: dict[str, Any], kind: str = "central"
-) -> dict[str, Any]:
-    """``PREDICTOR-distilled`` from a finished ``fleet-distil`` of the suite's test-split
-    study (its ``distil.json``): each test episode's figures averaged over the training
-    seeds (the expected cost of a policy distilled from one seed), the seeds' own means
-    kept; in the baselines file's format, as ``made`` for :func:`merge`.
-
-    Raises:
-        ValueError: ``distil`` is not such a run (no per-episode figures of ``kind``, or
-            seeds that differ between training seeds).
-    """
-    try:
-        rows, p = distil[kind]["seeds"], distil["predictor"]
-        eps = [r["episodes"] for r in rows]
-        seeds = eps[0]["seed"]
-        net = np.mean([e["net"] for e in eps], axis=0)
-        cost = np.mean([e["cost"] for e in eps], axis=0)
-    except (KeyError, TypeError, IndexError, ValueError) as e:
-        raise ValueError(
-            f"--distil-from: not a fleet-distil distil.json with each seed's"
-            f" episodes ({e!r}); rerun fleet-distil with this version"
-        ) from None
-    if any(e["seed"] != seeds for e in eps) or net.shape != (len(seeds),):
-        raise ValueError("--distil-from: the training seeds ran different episodes")
-    b = {"kind": "distilled", "predictor": p, "policy": f"distilled rollout on {distil['base']}",
-         "net": float(net.mean()), "cost": float(cost.mean()),
-         "episodes": {"seed": list(seeds), "net": net.tolist(), "cost": cost.tolist()},
-         "training_seeds": [int(r["seed"]) for r in rows],
-         "seed_nets": [float(r["net"]) for r in rows], "distil": distil.get("distil"),
-         "distil_command": distil.get("command")}  # fmt: skip
-    seconds = float(distil["labels"]["seconds"]) + sum(
-        float(r["train_seconds"]) + float(r["evaluate_seconds"]) for r in rows
-    )
-    return {"suite": suite.name, "suite_digest": suite.digest,
-            "baselines": {f"{p}{DISTILLED}": b}, "seconds": seconds}  # fmt: skip
 
 
 def bound_baselines(suite: Suite, config: FleetStudyConfig, atlas: Atlas) -> dict[str, Any]:

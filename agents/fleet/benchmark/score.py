@@ -28,7 +28,8 @@ from typing import Any
 
 import numpy as np
 
-from agents.fleet.benchmark.baselines import read_baselines, rebuild
+from agents.fleet.benchmark.baselines import BASELINES_DIR, read_baselines, rebuild
+from agents.fleet.benchmark.distilled import MeanEpisode, SeedMean
 from agents.fleet.benchmark.per_agent import PerAgent, is_per_agent
 from agents.fleet.benchmark.suite import Suite
 from agents.fleet.evaluation.costs import EpisodeCost, paired_interval, run_episode
@@ -108,10 +109,12 @@ def score(
     suite: Suite, policy: str | Callable[[Any], Any], atlas: Atlas, *,
     episodes_from: int | None = None, episodes: int | None = None,
     baselines: dict[str, Any] | None = None, progress: Any = None,
+    baselines_dir: Path = BASELINES_DIR,
 ) -> dict[str, Any]:  # fmt: skip
     """``policy`` (``baseline:NAME``, ``MODULE:FACTORY`` or a factory) on ``suite``'s test
     split (moved to ``episodes_from``; its first ``episodes``), paired with each baseline
-    (default: the shipped ones) and the bound; ``score.json``'s content.
+    (default: the shipped ones; a distilled one's agents are read from ``baselines_dir``)
+    and the bound; ``score.json``'s content.
 
     Raises:
         ValueError: An unknown baseline, a factory that cannot be loaded, a policy that
@@ -123,11 +126,11 @@ def score(
             raise ValueError(f"--episodes must be in [2, {config.eval_episodes}], got {episodes}")
         config = replace(config, eval_episodes=episodes)
     shipped = read_baselines(suite) if baselines is None else baselines
-    env, adapted, label = suite_policy(suite, policy, atlas, config, shipped)
+    env, adapted, label = suite_policy(suite, policy, atlas, config, shipped, baselines_dir)
     seeds = config.eval_seeds()
-    eps: list[EpisodeCost] = []
+    eps: list[EpisodeCost | MeanEpisode] = []
     for seed in seeds:
-        if isinstance(adapted, PerAgent):
+        if isinstance(adapted, PerAgent | SeedMean):
             eps.append(adapted.run(seed))
         else:
             eps.append(run_episode(env, adapted, seed, check_masks=True))
@@ -146,8 +149,8 @@ def score(
 
 def suite_policy(
     suite: Suite, policy: str | Callable[[Any], Any], atlas: Atlas, config: Any,
-    shipped: dict[str, Any] | None,
-) -> tuple[Any, Adapted | PerAgent, str]:  # fmt: skip
+    shipped: dict[str, Any] | None, baselines_dir: Path = BASELINES_DIR,
+) -> tuple[Any, Adapted | PerAgent | SeedMean, str]:  # fmt: skip
     """(env, the adapted policy, its label) of ``policy`` (as :func:`score` takes it) on
     ``config``'s episodes of ``suite``: what an analysis runs a policy the benchmark way by."""
     if isinstance(policy, str) and policy.startswith(BASELINE):
@@ -156,8 +159,8 @@ def suite_policy(
         if name not in known:
             raise ValueError(f"--policy {policy}: suite {suite.name!r} ships no baseline"
                              f" {name!r} (shipped: {', '.join(known) or 'none'})")  # fmt: skip
-        env, rule = rebuild(suite, known[name], atlas, config)
-        return env, Adapted(rule, env), policy
+        env, rule = rebuild(suite, known[name], atlas, config, baselines_dir)
+        return env, rule if isinstance(rule, SeedMean) else Adapted(rule, env), policy
     factory = load_factory(policy) if isinstance(policy, str) else policy
     p = suite.observe
     fitted = None if p == ORACLE else study_fit(config, p, atlas, atlas)

@@ -122,7 +122,7 @@ def suite_atlas(suite: Any, args: argparse.Namespace) -> Any:
 def cmd_fleet_score(args: argparse.Namespace) -> dict[str, Any]:
     from tqdm import tqdm
 
-    from agents.fleet.benchmark.baselines import read_baselines
+    from agents.fleet.benchmark.baselines import BASELINES_DIR, read_baselines
     from agents.fleet.benchmark.predictor import score_predictor
     from agents.fleet.benchmark.score import score
     from agents.fleet.benchmark.suite import read_suite
@@ -139,7 +139,8 @@ def cmd_fleet_score(args: argparse.Namespace) -> dict[str, Any]:
                   disable=args.quiet) as bar:  # fmt: skip
             result = score(suite, args.policy, suite_atlas(suite, args), progress=bar,
                            episodes_from=args.episodes_from, episodes=args.episodes,
-                           baselines=shipped)  # fmt: skip
+                           baselines=shipped, baselines_dir=Path(args.baselines).parent
+                           if args.baselines else BASELINES_DIR)  # fmt: skip
     result["command"] = command_line(args)
     out = Path(args.out)
     write_json(result, out / "score.json")
@@ -244,12 +245,14 @@ def _only_distilled(
     shipped: dict[str, Any], into: Path,
 ) -> dict[str, Any]:  # fmt: skip
     """``--only PREDICTOR-distilled --distil-from DIR``: read, not rerun, and merged."""
-    from agents.fleet.benchmark.baselines import distilled_baseline, merge
+    from agents.fleet.benchmark.baselines import merge
+    from agents.fleet.benchmark.distilled import distilled_baseline, ship_nets
 
     if names != distilled or len(distilled) != 1 or not args.distil_from:
         raise ValueError(f"--only {args.only}: a distilled policy is merged alone, from the"
                          " fleet-distil run named by --distil-from DIR")  # fmt: skip
-    path = Path(args.distil_from) / "distil.json"
+    run = Path(args.distil_from)
+    path = run / "distil.json"
     try:
         distil = json.loads(path.read_text(encoding="utf-8"))
     except (OSError, ValueError) as e:
@@ -258,7 +261,9 @@ def _only_distilled(
     if set(made["baselines"]) != distilled:
         raise ValueError(f"--distil-from {args.distil_from}: it distilled"
                          f" {list(made['baselines'])}, not {sorted(distilled)}")  # fmt: skip
-    merged = merge(shipped, made, names, command_line(args))
+    (name,) = distilled
+    merged = merge(shipped, made, names, command_line(args))  # checks the episodes first
+    ship_nets(merged["baselines"][name], run, distil, into, name)
     write_json(merged, into)
     print(f"merged {', '.join(sorted(names))} into {into}")
     return merged

@@ -16,7 +16,7 @@ from tqdm import tqdm
 
 from agents.fleet.settings import DistilConfig, FleetStudyConfig
 from agents.fleet.study.build import rebuild_rule
-from agents.fleet.study.distil import run_distil
+from agents.fleet.study.distil import central_nets, run_distil
 from agents.fleet.study.distil_job import Job
 from agents.fleet.study.distil_summary import (
     _episode_figure,
@@ -26,9 +26,10 @@ from agents.fleet.study.distil_summary import (
 )
 from agents.fleet.study.units import study_fit
 from brake_env.cli.common import command_line, load_atlas, make_runner
-from brake_env.output import write_json, write_text
+from brake_env.output import write_arrays, write_json, write_text
 from brake_env.prognostics.registry import ORACLE
 
+NETS = "nets.npz"  # the central seeds' agents (agents.fleet.study.distil.central_nets)
 # What a study's costs.json config must name: a missing one would be taken at its default
 # and change what is compared (the objective) or fitted (the seed, the fleet, the episodes)
 REQUIRED = ("objective", "seed", "size", "shifts", "eval_episodes", "n_train_runs")
@@ -154,6 +155,9 @@ def cmd_fleet_distil(args: argparse.Namespace) -> dict[str, Any]:
         units = run_distil(job, atlas, fitted, out, runner, progress)
     summary = summarise_distil(job, study, units)
     summary["command"] = command_line(args)
+    if job.distil.seeds:  # the central policies, rebuilt by a shipped baseline
+        nets = central_nets(job, units)
+        summary["nets"] = {"file": NETS, "sha256": write_arrays(nets, out / NETS)}
     from agents.fleet.study.plots import plot_distil
 
     figure = plot_distil(summary, out / "figures" / "distil.png")

@@ -106,7 +106,7 @@ class FrozenAgent:
         self, model: Any, layout: FleetLayout, obs_mean: F32, obs_var: F32, clip: float = 10.0
     ) -> None:
         self.model, self.layout, self.clip = model, layout, clip
-        self.mean, self.std = obs_mean, np.sqrt(obs_var + 1e-8)
+        self.mean, self.var, self.std = obs_mean, obs_var, np.sqrt(obs_var + 1e-8)
         self.imitation: Imitation | None = None  # set by the trainer with a teacher
 
     def normalize(self, obs: NDArray[Any]) -> F32:

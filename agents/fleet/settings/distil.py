@@ -5,6 +5,7 @@ from __future__ import annotations
 import hashlib
 import json
 from dataclasses import asdict, dataclass, field
+from typing import Any
 
 from agents.fleet.settings.training import LABEL_SEED0, FleetTraining
 from brake_env._validate import whole
@@ -62,6 +63,15 @@ class DistilConfig:
         if not isinstance(self.predictor, str) or not isinstance(self.base_input, bool):
             raise ValueError(f"DistilConfig: predictor must be a name and base_input a bool,"
                              f" got {self.predictor!r} and {self.base_input!r}")  # fmt: skip
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> DistilConfig:
+        """The config :func:`dataclasses.asdict` gave (``distil.json``'s ``distil``)."""
+        tr = dict(d["training"])
+        tr["net_arch"] = tuple(tr["net_arch"])
+        if tr.get("reorder") is not None:
+            tr["reorder"] = tuple(tr["reorder"])
+        return cls(**{**d, "training": FleetTraining(**tr)})
 
     def label_seeds(self, round_: int) -> list[int]:
         return [LABEL_SEED0 + 1000 * round_ + k for k in range(self.label_episodes)]

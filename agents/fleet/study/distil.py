@@ -17,7 +17,8 @@ planner's own decisions.
 **Each training seed** (:func:`seed_unit`): MaskablePPO cloned from all the labels (masked
 cross-entropy, the value head on their discounted returns), PPO for
 ``training.timesteps`` shifts if any (learning curve on the study's curve episodes), then
-the study's evaluation episodes, each decision timed.
+the study's evaluation episodes, each decision timed; the trained agent's weights and
+observation statistics are kept (:func:`central_nets`: the run's ``nets.npz``).
 """
 
 from __future__ import annotations
@@ -34,6 +35,7 @@ from numpy.typing import NDArray
 
 from agents.fleet.evaluation.costs import run_episodes
 from agents.fleet.learning.agent import FleetAgent, ReorderBy, train_on_labels
+from agents.fleet.learning.agent_arrays import agent_arrays
 from agents.fleet.learning.dispatch import cover_needs
 from agents.fleet.learning.imitation import concat, record
 from agents.fleet.policies.view import FleetView
@@ -135,7 +137,16 @@ def _seed(
         "episodes": episodes_dict(eps),
         "seconds": {"train": train_s, "evaluate": time.perf_counter() - t0 - train_s},
         "seconds_per_decision": timed.seconds / max(timed.calls, 1),
+        "agent": agent_arrays(agent),
     }  # fmt: skip
+
+
+def central_nets(job: Job, units: Mapping[str, Any]) -> dict[str, NDArray[Any]]:
+    """Every central seed's trained agent (:func:`agent_arrays`), ``seedK/NAME``: the
+    ``nets.npz`` of a run, from which a shipped baseline rebuilds the policies."""
+    return {f"seed{s}/{k}": np.asarray(v)
+            for kind, s in job.seed_runs() if kind == "central"
+            for k, v in units[job.seed_key(s)]["agent"].items()}  # fmt: skip
 
 
 def distil_graph(job: Job, atlas: Any, fitted: Any) -> list[Unit | Later]:

@@ -163,3 +163,53 @@ def test_the_shared_policy_reads_a_label_as_the_pettingzoo_env_s_observation(atl
         action, _ = rule.predict(a)
         a, *_ = full.step(action)
         b, *_ = hot.step(action)
+
+
+def test_the_shipped_agents_rebuild_every_seed_s_episodes_exactly(distilled, atlas, tmp_path):
+    """The run's nets.npz, shipped beside a baselines file, rebuilds each central seed's
+    agent: the seeds' mean on every evaluation episode equals the shipped figure, bit for
+    bit; an altered nets file or a baseline without one is refused, named."""
+    from types import SimpleNamespace
+
+    from agents.fleet.benchmark.distilled import distilled_baseline, rebuild_distilled, ship_nets
+
+    root, _, d = distilled
+    assert (root / "d" / d["nets"]["file"]).is_file()
+    made = distilled_baseline(SimpleNamespace(name="tiny", digest="x"), d)
+    entry = made["baselines"]["oracle-distilled"]
+    ship_nets(entry, root / "d", d, tmp_path / "b.json", "oracle-distilled")
+    assert entry["nets"]["file"] == "b.oracle-distilled.npz" and entry["training_seeds"] == [0, 1]
+    env, seeds = rebuild_distilled(STUDY, entry, atlas, tmp_path)
+    got = [seeds.run(s) for s in STUDY.eval_seeds()]
+    assert [g.net for g in got] == entry["episodes"]["net"]
+    assert [g.per_vehicle_shift for g in got] == entry["episodes"]["cost"]
+    per_seed = [r["episodes"]["net"] for r in d["central"]["seeds"]]
+    assert len({tuple(x) for x in per_seed}) == 2  # the seeds' agents differ: a mean, not one
+    nets = tmp_path / entry["nets"]["file"]
+    blob = bytearray(nets.read_bytes())
+    blob[len(blob) // 2] ^= 0xFF
+    nets.write_bytes(bytes(blob))
+    with pytest.raises(ValueError, match="not the file its header was written with"):
+        rebuild_distilled(STUDY, entry, atlas, tmp_path)
+    with pytest.raises(ValueError, match="made before its agents were shipped"):
+        rebuild_distilled(STUDY, {k: v for k, v in entry.items() if k != "nets"}, atlas, tmp_path)
+
+
+def test_a_saved_agent_of_another_network_is_refused_naming_the_weights(distilled, atlas):
+    from agents.fleet.benchmark.distilled import rebuild_distilled  # noqa: F401  # loads torch
+    from agents.fleet.learning.agent_arrays import agent_from_arrays
+    from brake_env.output import read_arrays
+
+    root, _, d = distilled
+    arrays = read_arrays(root / "d" / "nets.npz", d["nets"]["sha256"], "test")
+    mine = {k.split("/", 1)[1]: v for k, v in arrays.items() if k.startswith("seed0/")}
+    job = Job(STUDY, DistilConfig.from_dict(d["distil"]), (d["base"], d["params"]))
+    args = (lambda: job.env(atlas, None), job.training(0), job.layout(), job.base_input())
+    assert agent_from_arrays(mine, *args).mean.shape == mine["obs_mean"].shape
+    first = next(k for k in mine if k.startswith("w:"))
+    with pytest.raises(ValueError, match=f"weights \\['{first.removeprefix('w:')}'\\] missing"):
+        agent_from_arrays({k: v for k, v in mine.items() if k != first}, *args)
+    with pytest.raises(ValueError, match="of another shape"):
+        agent_from_arrays({**mine, first: np.zeros(3, dtype=np.float32)}, *args)
+    with pytest.raises(ValueError, match="no obs_var"):
+        agent_from_arrays({k: v for k, v in mine.items() if k != "obs_var"}, *args)
