@@ -91,12 +91,13 @@ def test_wheel_installs_and_trains_outside_the_source_tree(tmp_path: Path) -> No
     )
     got = _run(python, "-c", shipped, cwd=work, env=env)
     assert "'default-mixed'" in got and got.split()[-1] == "24", got
-    # Every data file of the benchmark (suites, baselines, entries and their models, training
-    # configs) and every fleet file is in the installed package, byte for byte.
+    # Every data file of the benchmark (suites, baselines and their distilled agents, entries
+    # and their models, training configs) and every fleet file is in the installed package,
+    # byte for byte.
     folders = ("agents/fleet/benchmark", "brake_env/env/fleet/fleets")
     data = [f for d in folders for f in sorted((ROOT / d).rglob("*"))
-            if f.suffix in (".toml", ".json", ".zip")]  # fmt: skip
-    assert any(f.suffix == ".zip" for f in data) and len(data) > 10
+            if f.suffix in (".toml", ".json", ".zip", ".npz")]  # fmt: skip
+    assert {".zip", ".npz"} <= {f.suffix for f in data} and len(data) > 10
     for f in data:
         installed = site / f.relative_to(ROOT)
         assert installed.is_file() and installed.read_bytes() == f.read_bytes(), installed

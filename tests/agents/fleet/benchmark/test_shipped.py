@@ -109,6 +109,17 @@ def test_the_shipped_reference_re_scored_on_a_test_episode_gives_its_figures(atl
     assert got["episodes"]["cost"] == entry["episodes"]["cost"][:2]
 
 
+def test_a_shipped_distilled_policy_re_scored_gives_its_seeds_mean(atlas) -> None:
+    """Every training seed's shipped agent rebuilt (``small``'s twin, 5 seeds) on the first
+    two test episodes: the seeds' mean is the shipped figure exactly."""
+    suite = read_suite("small")
+    entry = read_baselines(suite)["baselines"]["twin-distilled"]
+    assert len(entry["training_seeds"]) == 5 and entry["nets"]["file"].endswith(".npz")
+    got = score(suite, "baseline:twin-distilled", atlas, episodes=2)
+    assert got["episodes"]["net"] == entry["episodes"]["net"][:2]
+    assert got["episodes"]["cost"] == entry["episodes"]["cost"][:2]
+
+
 def test_a_study_s_reference_records_its_tail_and_the_oracle_s_rule() -> None:
     rule = {"predictor": "oracle", "policy": "threshold", "params": {"s": 2}}
     summary = {

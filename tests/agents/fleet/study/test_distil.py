@@ -180,6 +180,7 @@ def test_the_shipped_agents_rebuild_every_seed_s_episodes_exactly(distilled, atl
     ship_nets(entry, root / "d", d, tmp_path / "b.json", "oracle-distilled")
     assert entry["nets"]["file"] == "b.oracle-distilled.npz" and entry["training_seeds"] == [0, 1]
     env, seeds = rebuild_distilled(STUDY, entry, atlas, tmp_path)
+    assert seeds.env is env and len(seeds.agents) == 2
     got = [seeds.run(s) for s in STUDY.eval_seeds()]
     assert [g.net for g in got] == entry["episodes"]["net"]
     assert [g.per_vehicle_shift for g in got] == entry["episodes"]["cost"]
