@@ -101,9 +101,10 @@ def test_a_distilled_policy_is_merged_from_its_fleet_distil(tmp_path, capsys) ->
     assert d["seed_nets"] == [sum(a) / len(a), sum(b) / len(b)] and d["kind"] == "distilled"
     assert d["seconds"] == 16.0 and f"--distil-from {run}" in d["command"]
     assert d["distil_command"] == "brakewear d"
-    assert {k: v for k, v in got["baselines"].items() if k != "twin-distilled"} == shipped[
-        "baselines"
-    ]
+    assert "nets" not in d  # a run without agents: its figures are read, not re-scored
+    others = [{k: v for k, v in f["baselines"].items() if k != "twin-distilled"}
+              for f in (got, shipped)]  # fmt: skip
+    assert others[0] == others[1]
     bad = _distil(seeds, [a, b])
     bad["central"]["seeds"][1]["episodes"]["seed"] = list(range(len(seeds)))
     (run / "distil.json").write_text(json.dumps(bad))
