@@ -179,6 +179,9 @@ def test_the_shipped_agents_rebuild_every_seed_s_episodes_exactly(distilled, atl
     entry = made["baselines"]["oracle-distilled"]
     ship_nets(entry, root / "d", d, tmp_path / "b.json", "oracle-distilled")
     assert entry["nets"]["file"] == "b.oracle-distilled.npz" and entry["training_seeds"] == [0, 1]
+    with pytest.raises(ValueError, match="holds no agent of seed 7"):
+        ship_nets({**entry, "training_seeds": [0, 7]}, root / "d", d, tmp_path / "c.json", "x")
+    assert not (tmp_path / "c.x.npz").exists()
     env, seeds = rebuild_distilled(STUDY, entry, atlas, tmp_path)
     assert seeds.env is env and len(seeds.agents) == 2
     got = [seeds.run(s) for s in STUDY.eval_seeds()]
