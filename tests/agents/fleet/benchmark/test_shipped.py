@@ -21,10 +21,10 @@ from agents.fleet.study.units import study_fit
 RULES = {"oracle-rule", "twin-rule", "window-rule", "data-rule", "physics-rule"}
 ROLLOUTS = {"oracle-rollout", "twin-rollout"}
 SHIPPED = {
-    "small": RULES | ROLLOUTS | {"priced", "reference"},
+    "small": RULES | ROLLOUTS | {"priced", "reference", "twin-distilled"},
     "default": RULES | ROLLOUTS | {"priced", "oracle-distilled", "twin-distilled"},
     "default-mixed": RULES | ROLLOUTS | {"priced"},
-    "large": RULES | {"priced"},
+    "large": RULES | ROLLOUTS | {"priced"},
 }
 PAGE = Path(__file__).parents[4] / "docs" / "benchmark.md"
 
