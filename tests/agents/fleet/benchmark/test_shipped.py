@@ -23,7 +23,7 @@ ROLLOUTS = {"oracle-rollout", "twin-rollout"}
 SHIPPED = {
     "small": RULES | ROLLOUTS | {"priced", "reference", "twin-distilled"},
     "default": RULES | ROLLOUTS | {"priced", "oracle-distilled", "twin-distilled"},
-    "default-mixed": RULES | ROLLOUTS | {"priced"},
+    "default-mixed": RULES | ROLLOUTS | {"priced", "twin-distilled"},
     "large": RULES | ROLLOUTS | {"priced"},
 }
 PAGE = Path(__file__).parents[4] / "docs" / "benchmark.md"
